@@ -1,0 +1,68 @@
+"""The ``nsrmp-bench`` command: one console script, one verb per module.
+
+Each verb lives in ``nsrmp_bench/cli/<verb>.py`` (dashes become underscores) and provides
+``add_arguments(parser)`` and ``run(args) -> int``. Verb modules are imported only when
+their verb runs, so ``--help`` and scoring never import PyBullet or torch.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+from nsrmp_bench import __version__
+from nsrmp_bench.errors import NSRMPError
+
+__all__ = ["VERBS", "main"]
+
+VERBS: dict[str, str] = {
+    "sample": "generate and print one symbolic episode as JSON",
+}
+"""Verb name -> one-line help. The module is ``nsrmp_bench.cli.<verb with _>``."""
+
+
+def _module_name(verb: str) -> str:
+    return "nsrmp_bench.cli." + verb.replace("-", "_")
+
+
+def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser; only ``verb``'s module is imported to add its arguments."""
+    parser = argparse.ArgumentParser(
+        prog="nsrmp-bench",
+        description="Dataset and benchmark for language-guided robot manipulation "
+        "with neuro-symbolic programs.",
+    )
+    parser.add_argument("--version", action="version", version=f"nsrmp-bench {__version__}")
+    sub = parser.add_subparsers(dest="verb", metavar="VERB")
+    for name, help_text in VERBS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        if name == verb:
+            importlib.import_module(_module_name(name)).add_arguments(p)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit status."""
+    args_list = list(sys.argv[1:] if argv is None else argv)
+    verb = next((a for a in args_list if not a.startswith("-")), None)
+    parser = build_parser(verb if verb in VERBS else None)
+    args = parser.parse_args(args_list)
+    if args.verb is None:
+        parser.print_help()
+        return 0
+    module = importlib.import_module(_module_name(args.verb))
+    try:
+        status: int = module.run(args)
+    except NSRMPError as exc:
+        print(f"nsrmp-bench {args.verb}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"nsrmp-bench {args.verb}: interrupted", file=sys.stderr)
+        return 130
+    return status
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

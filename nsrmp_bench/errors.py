@@ -1,0 +1,79 @@
+"""The error vocabulary of nsrmp-bench.
+
+Every error raised on purpose by the package derives from :class:`NSRMPError`. Each
+subclass is something a caller can act on, and every message names the offending value,
+what was expected and how to fix it.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "AmbiguousReference",
+    "BadProgram",
+    "DataIntegrityError",
+    "DownloadError",
+    "GenerationError",
+    "InfeasibleStep",
+    "InvalidArgument",
+    "InvalidReference",
+    "MissingExtra",
+    "NSRMPError",
+    "SchemaVersionError",
+    "SubmissionError",
+    "UnknownId",
+]
+
+
+class NSRMPError(Exception):
+    """Base class of every error nsrmp-bench raises on purpose."""
+
+
+class InvalidArgument(NSRMPError, ValueError):
+    """An argument has a value outside the accepted set or range."""
+
+
+class UnknownId(NSRMPError, KeyError):
+    """An id (split, template, baseline, metric, verb ...) is not registered."""
+
+    def __str__(self) -> str:  # KeyError quotes its message; keep it readable.
+        return str(self.args[0]) if self.args else ""
+
+
+class BadProgram(NSRMPError, ValueError):
+    """A program does not type-check against the DSL signatures."""
+
+
+class InvalidReference(NSRMPError):
+    """A reference in a program matches no object in the state where it is evaluated."""
+
+
+class AmbiguousReference(NSRMPError):
+    """A reference in a program matches more than one object where it is evaluated."""
+
+
+class InfeasibleStep(NSRMPError):
+    """A manipulation step cannot be carried out (blocked, off the table, degenerate)."""
+
+
+class GenerationError(NSRMPError):
+    """Generation could not produce a valid instance within its bounded number of tries."""
+
+
+class SchemaVersionError(NSRMPError):
+    """A file carries a schema version this reader does not understand."""
+
+
+class DataIntegrityError(NSRMPError):
+    """A data file is truncated, corrupt, or disagrees with its manifest."""
+
+
+class SubmissionError(NSRMPError):
+    """A predictions file is malformed; the message names the line and the fix."""
+
+
+class DownloadError(NSRMPError):
+    """A download failed or its content does not match the registered checksum."""
+
+
+class MissingExtra(NSRMPError, ImportError):
+    """An optional dependency is needed; the message names the extra to install."""
