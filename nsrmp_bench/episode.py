@@ -248,7 +248,7 @@ class Rendering:
     """The physical, rendered realisation of a symbolic episode."""
 
     camera: Camera
-    observations: Observations
+    observations: Observations | None  # None when read without images
     targets: ObjectTargets
     executor: str = "teleport"
     trajectory: Trajectory | None = None

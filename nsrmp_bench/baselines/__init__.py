@@ -1,0 +1,1 @@
+"""Non-learned baselines that write ordinary prediction files."""
