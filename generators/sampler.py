@@ -1,0 +1,136 @@
+"""Sampling whole symbolic episodes: scene, program, instruction, from a seed.
+
+Instance ``index`` of a spec with entropy ``e`` is a pure function of (config, e, index):
+attempt ``a`` draws everything from ``SeedSequence(e, spawn_key=(index, a))``, and a
+rejected attempt (no valid program, a failed constraint, a physics rejection downstream)
+moves on to attempt ``a + 1``, up to a bounded number of attempts.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from nsrmp_bench.episode import SeedInfo, SymbolicEpisode
+from nsrmp_bench.errors import GenerationError, InvalidArgument
+from nsrmp_bench.generators.instructions import HELD_OUT_MODES, render_instruction
+from nsrmp_bench.generators.program_sampler import RELATIONAL_POLICIES, sample_program
+from nsrmp_bench.generators.scene_sampler import ALL_PAIRS, sample_scene
+from nsrmp_bench.generators.templates import load_language
+from nsrmp_bench.vocabulary import PHRASINGS
+
+__all__ = ["GENERATOR_ID", "EpisodeConfig", "sample_episode", "sample_symbolic"]
+
+GENERATOR_ID = "symbolic-v1"
+
+
+@dataclass(frozen=True)
+class EpisodeConfig:
+    """What one instance must look like."""
+
+    objects: int = 5
+    steps: int = 1
+    relational: str = "none"
+    phrasing: str = "simple"
+    held_out: str = "exclude"
+    pairs: tuple[tuple[str, str], ...] = ALL_PAIRS
+    required_pairs: tuple[tuple[str, str], ...] = ()
+    duplicates: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.relational not in RELATIONAL_POLICIES:
+            msg = f"relational={self.relational!r}; expected one of {list(RELATIONAL_POLICIES)}"
+            raise InvalidArgument(msg)
+        if self.phrasing not in PHRASINGS:
+            msg = f"phrasing={self.phrasing!r}; expected one of {list(PHRASINGS)}"
+            raise InvalidArgument(msg)
+        if self.held_out not in HELD_OUT_MODES:
+            msg = f"held_out={self.held_out!r}; expected one of {list(HELD_OUT_MODES)}"
+            raise InvalidArgument(msg)
+
+    @property
+    def forced_duplicates(self) -> int:
+        """Duplicate (shape, colour) objects to force into the scene."""
+        if self.duplicates is not None:
+            return self.duplicates
+        return 1 if self.relational == "needed" else 0
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-able form."""
+        data = asdict(self)
+        data["pairs"] = [list(p) for p in self.pairs]
+        data["required_pairs"] = [list(p) for p in self.required_pairs]
+        return data
+
+
+def _referenced_pairs(sample: Any, objects: Any) -> set[tuple[str, str]]:
+    out: set[tuple[str, str]] = set()
+    for step in sample.grounded:
+        for i in (step.subject, step.reference):
+            out.add((objects[i].shape, objects[i].colour))
+    return out
+
+
+def sample_symbolic(config: EpisodeConfig, seed: SeedInfo, episode_id: str) -> SymbolicEpisode:
+    """One attempt: raises GenerationError when this seed yields no valid episode."""
+    rng = seed.generator()
+    scene = sample_scene(
+        rng, config.objects, pairs=config.pairs, duplicates=config.forced_duplicates
+    )
+    sample = sample_program(rng, scene, config.steps, relational=config.relational)
+    if config.required_pairs and not (
+        _referenced_pairs(sample, scene.objects) & set(config.required_pairs)
+    ):
+        msg = "no step moves or targets an object of a required (shape, colour) pair"
+        raise GenerationError(msg)
+    instruction = render_instruction(
+        rng, load_language(), scene.objects, sample,
+        phrasing=config.phrasing, held_out=config.held_out,
+    )
+    return SymbolicEpisode(
+        id=episode_id,
+        generator=GENERATOR_ID,
+        seed=seed,
+        scene=scene,
+        program=sample.program,
+        grounded=sample.grounded,
+        instruction=instruction,
+        states=sample.states,
+        references=sample.labels,
+    )
+
+
+@dataclass
+class AttemptLog:
+    """Why the attempts before the accepted one were rejected."""
+
+    reasons: Counter[str] = field(default_factory=Counter)
+    attempts: int = 0
+
+
+def sample_episode(
+    config: EpisodeConfig,
+    entropy: int,
+    index: int,
+    episode_id: str,
+    *,
+    max_attempts: int = 64,
+    log: AttemptLog | None = None,
+) -> SymbolicEpisode:
+    """The first valid attempt for instance ``index``; GenerationError past ``max_attempts``."""
+    last: Exception | None = None
+    for attempt in range(max_attempts):
+        if log is not None:
+            log.attempts += 1
+        try:
+            return sample_symbolic(config, SeedInfo(entropy, index, attempt), episode_id)
+        except GenerationError as exc:
+            last = exc
+            if log is not None:
+                log.reasons[type(exc).__name__ + ": " + str(exc).split(";")[0][:60]] += 1
+    msg = (
+        f"instance {index}: no valid episode in {max_attempts} attempts for {config}; "
+        f"last problem: {last}. Relax the config (fewer steps or objects, relational='any')"
+    )
+    raise GenerationError(msg)
