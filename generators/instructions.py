@@ -12,12 +12,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from nsrmp_bench.episode import Instruction
-from nsrmp_bench.errors import GenerationError, InvalidArgument
 from nsrmp_bench.generators.program_sampler import ProgramSample
 from nsrmp_bench.generators.references import Reference
 from nsrmp_bench.generators.templates import Language, StepTemplate, WordChoice
+
+from nsrmp_bench.episode import Instruction
+from nsrmp_bench.errors import GenerationError, InvalidArgument
 from nsrmp_bench.scene import SceneObject
 from nsrmp_bench.vocabulary import PHRASINGS
 

@@ -13,13 +13,13 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
-
 from nsrmp_bench.generators.references import (
     Reference,
     attribute_references,
     compile_reference,
     relational_references,
 )
+
 from nsrmp_bench.dsl.actions import apply_step, step_problem
 from nsrmp_bench.dsl.program import GroundedStep, Node, Program
 from nsrmp_bench.episode import ReferenceLabel

@@ -21,7 +21,7 @@ __all__ = ["Reference", "attribute_references", "compile_reference", "relational
 
 @dataclass(frozen=True)
 class Reference:
-    """Colour and/or shape filters, optionally applied to the objects in ``relation`` of ``anchor``."""
+    """Colour and/or shape filters, optionally over the objects in ``relation`` of ``anchor``."""
 
     colour: str | None = None
     shape: str | None = None

@@ -12,12 +12,13 @@ from collections import Counter
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from nsrmp_bench.episode import SeedInfo, SymbolicEpisode
-from nsrmp_bench.errors import GenerationError, InvalidArgument
 from nsrmp_bench.generators.instructions import HELD_OUT_MODES, render_instruction
 from nsrmp_bench.generators.program_sampler import RELATIONAL_POLICIES, sample_program
 from nsrmp_bench.generators.scene_sampler import ALL_PAIRS, sample_scene
 from nsrmp_bench.generators.templates import load_language
+
+from nsrmp_bench.episode import SeedInfo, SymbolicEpisode
+from nsrmp_bench.errors import GenerationError, InvalidArgument
 from nsrmp_bench.vocabulary import PHRASINGS
 
 __all__ = ["GENERATOR_ID", "EpisodeConfig", "sample_episode", "sample_symbolic"]

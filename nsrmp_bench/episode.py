@@ -38,7 +38,7 @@ SCHEMA_VERSION = "1.0.0"
 
 @dataclass(frozen=True)
 class SeedInfo:
-    """Where an instance's randomness came from: SeedSequence(entropy, spawn_key=(index, attempt))."""
+    """An instance's randomness: ``SeedSequence(entropy, spawn_key=(index, attempt))``."""
 
     entropy: int
     index: int

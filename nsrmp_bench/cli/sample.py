@@ -32,7 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         const="any",
         default="none",
         choices=("none", "any", "needed", "redundant"),
-        help="use relational references (bare flag = any); 'needed': attributes alone are ambiguous",
+        help="use relational references (bare flag = any); "
+        "'needed': attributes alone are ambiguous",
     )
     parser.add_argument("--phrasing", default="simple", choices=PHRASINGS)
     parser.add_argument("--held-out", default="exclude", choices=("exclude", "require"),
@@ -47,7 +48,8 @@ def run(args: argparse.Namespace) -> int:
         objects=args.objects, steps=args.steps, relational=args.relational,
         phrasing=args.phrasing, held_out=args.held_out,
     )
-    episode = sampler.sample_episode(config, args.seed, args.index, f"sample-{args.seed}-{args.index}")
+    episode_id = f"sample-{args.seed}-{args.index}"
+    episode = sampler.sample_episode(config, args.seed, args.index, episode_id)
     data = episode.to_dict()
     if args.indent is None:
         sys.stdout.write(canonical_json(data) + "\n")

@@ -94,21 +94,36 @@ class Program:
                 raise BadProgram(msg)
             for j, (src, want) in enumerate(zip(node.inputs, sig["inputs"], strict=True)):
                 if not 0 <= src < i:
-                    msg = f"node {i} ({node.op}) input {j} refers to node {src}; inputs must refer to earlier nodes 0..{i - 1}"
+                    msg = (
+                        f"node {i} ({node.op}) input {j} refers to node {src}; "
+                        f"inputs must refer to earlier nodes 0..{i - 1}"
+                    )
                     raise BadProgram(msg)
                 if out_types[src] != want:
-                    msg = f"node {i} ({node.op}) input {j} needs {want}, but node {src} ({self.nodes[src].op}) gives {out_types[src]}"
+                    msg = (
+                        f"node {i} ({node.op}) input {j} needs {want}, but node {src} "
+                        f"({self.nodes[src].op}) gives {out_types[src]}"
+                    )
                     raise BadProgram(msg)
             if len(node.params) != len(sig["params"]):
-                msg = f"node {i} ({node.op}) takes {len(sig['params'])} parameters, got {list(node.params)}"
+                msg = (
+                    f"node {i} ({node.op}) takes {len(sig['params'])} parameters, "
+                    f"got {list(node.params)}"
+                )
                 raise BadProgram(msg)
             for value, kind in zip(node.params, sig["params"], strict=True):
                 if value not in _PARAM_VALUES[kind]:
-                    msg = f"node {i} ({node.op}): {value!r} is not a {kind}; expected one of {list(_PARAM_VALUES[kind])}"
+                    msg = (
+                        f"node {i} ({node.op}): {value!r} is not a {kind}; "
+                        f"expected one of {list(_PARAM_VALUES[kind])}"
+                    )
                     raise BadProgram(msg)
             out_types.append(sig["output"])
         if out_types[-1] != "action_chain":
-            msg = f"the last node must give an action_chain (move or idle), got {self.nodes[-1].op} giving {out_types[-1]}"
+            msg = (
+                "the last node must give an action_chain (move or idle), "
+                f"got {self.nodes[-1].op} giving {out_types[-1]}"
+            )
             raise BadProgram(msg)
 
     @property
