@@ -12,20 +12,18 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from nsrmp_bench.config import HELD_OUT_MODES
+from nsrmp_bench.episode import Instruction
+from nsrmp_bench.errors import GenerationError, InvalidArgument
 from nsrmp_bench.generators.program_sampler import ProgramSample
 from nsrmp_bench.generators.references import Reference
 from nsrmp_bench.generators.templates import Language, StepTemplate, WordChoice
-
-from nsrmp_bench.episode import Instruction
-from nsrmp_bench.errors import GenerationError, InvalidArgument
 from nsrmp_bench.scene import SceneObject
 from nsrmp_bench.vocabulary import PHRASINGS
 
 __all__ = ["HELD_OUT_MODES", "render_instruction"]
 
-HELD_OUT_MODES = ("exclude", "require")
-"""exclude: in-distribution language only; require: at least one held-out template or
-synonym in every instruction (the language split)."""
 _HELD_OUT_P = 0.5
 
 

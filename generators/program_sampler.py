@@ -13,26 +13,23 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from nsrmp_bench.config import RELATIONAL_POLICIES
+from nsrmp_bench.dsl.actions import apply_step, step_problem
+from nsrmp_bench.dsl.program import GroundedStep, Node, Program
+from nsrmp_bench.episode import ReferenceLabel
+from nsrmp_bench.errors import GenerationError, InvalidArgument
 from nsrmp_bench.generators.references import (
     Reference,
     attribute_references,
     compile_reference,
     relational_references,
 )
-
-from nsrmp_bench.dsl.actions import apply_step, step_problem
-from nsrmp_bench.dsl.program import GroundedStep, Node, Program
-from nsrmp_bench.episode import ReferenceLabel
-from nsrmp_bench.errors import GenerationError, InvalidArgument
 from nsrmp_bench.scene import Scene, State
 from nsrmp_bench.vocabulary import ACTIONS
 
 __all__ = ["RELATIONAL_POLICIES", "ProgramSample", "sample_program"]
 
-RELATIONAL_POLICIES = ("none", "any", "needed", "redundant")
-"""none: no relations; any: at least one relational reference; needed: at least one
-relational reference whose object attributes alone are ambiguous; redundant: relational
-references only where attributes alone would do."""
 
 _OPTIONAL_RELATIONAL_P = 0.25
 

@@ -9,60 +9,20 @@ moves on to attempt ``a + 1``, up to a bounded number of attempts.
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Any
 
-from nsrmp_bench.generators.instructions import HELD_OUT_MODES, render_instruction
-from nsrmp_bench.generators.program_sampler import RELATIONAL_POLICIES, sample_program
-from nsrmp_bench.generators.scene_sampler import ALL_PAIRS, sample_scene
+from nsrmp_bench.config import EpisodeConfig
+from nsrmp_bench.episode import SeedInfo, SymbolicEpisode
+from nsrmp_bench.errors import GenerationError
+from nsrmp_bench.generators.instructions import render_instruction
+from nsrmp_bench.generators.program_sampler import sample_program
+from nsrmp_bench.generators.scene_sampler import sample_scene
 from nsrmp_bench.generators.templates import load_language
 
-from nsrmp_bench.episode import SeedInfo, SymbolicEpisode
-from nsrmp_bench.errors import GenerationError, InvalidArgument
-from nsrmp_bench.vocabulary import PHRASINGS
-
-__all__ = ["GENERATOR_ID", "EpisodeConfig", "sample_episode", "sample_symbolic"]
+__all__ = ["GENERATOR_ID", "AttemptLog", "EpisodeConfig", "sample_episode", "sample_symbolic"]
 
 GENERATOR_ID = "symbolic-v1"
-
-
-@dataclass(frozen=True)
-class EpisodeConfig:
-    """What one instance must look like."""
-
-    objects: int = 5
-    steps: int = 1
-    relational: str = "none"
-    phrasing: str = "simple"
-    held_out: str = "exclude"
-    pairs: tuple[tuple[str, str], ...] = ALL_PAIRS
-    required_pairs: tuple[tuple[str, str], ...] = ()
-    duplicates: int | None = None
-
-    def __post_init__(self) -> None:
-        if self.relational not in RELATIONAL_POLICIES:
-            msg = f"relational={self.relational!r}; expected one of {list(RELATIONAL_POLICIES)}"
-            raise InvalidArgument(msg)
-        if self.phrasing not in PHRASINGS:
-            msg = f"phrasing={self.phrasing!r}; expected one of {list(PHRASINGS)}"
-            raise InvalidArgument(msg)
-        if self.held_out not in HELD_OUT_MODES:
-            msg = f"held_out={self.held_out!r}; expected one of {list(HELD_OUT_MODES)}"
-            raise InvalidArgument(msg)
-
-    @property
-    def forced_duplicates(self) -> int:
-        """Duplicate (shape, colour) objects to force into the scene."""
-        if self.duplicates is not None:
-            return self.duplicates
-        return 1 if self.relational == "needed" else 0
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain JSON-able form."""
-        data = asdict(self)
-        data["pairs"] = [list(p) for p in self.pairs]
-        data["required_pairs"] = [list(p) for p in self.required_pairs]
-        return data
 
 
 def _referenced_pairs(sample: Any, objects: Any) -> set[tuple[str, str]]:

@@ -13,9 +13,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from nsrmp_bench.config import ALL_PAIRS
 from nsrmp_bench.errors import GenerationError, InvalidArgument
 from nsrmp_bench.scene import Pose, Scene, SceneObject, yaw_quaternion
-from nsrmp_bench.vocabulary import COLOURS, EXTENTS, SAMPLING_AREA, SHAPES, TABLE_TOP_Z
+from nsrmp_bench.vocabulary import EXTENTS, SAMPLING_AREA, TABLE_TOP_Z
 
 __all__ = ["ALL_PAIRS", "MAX_OBJECTS", "MIN_GAP", "MIN_OBJECTS", "sample_scene"]
 
@@ -23,7 +24,6 @@ MIN_OBJECTS = 3
 MAX_OBJECTS = 15
 MIN_GAP = 0.012
 """Clearance in metres between the circumscribed footprint circles of two objects."""
-ALL_PAIRS: tuple[tuple[str, str], ...] = tuple((s, c) for s in SHAPES for c in COLOURS)
 _TRIES_PER_OBJECT = 400
 _RESTARTS = 50
 

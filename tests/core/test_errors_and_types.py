@@ -6,11 +6,12 @@ import subprocess
 import sys
 
 import pytest
-from nsrmp_bench.generators.sampler import EpisodeConfig, sample_episode
-from nsrmp_bench.generators.scene_sampler import sample_scene
 
 from nsrmp_bench import errors
 from nsrmp_bench._optional import require
+from nsrmp_bench.config import EpisodeConfig
+from nsrmp_bench.generators.sampler import sample_episode
+from nsrmp_bench.generators.scene_sampler import sample_scene
 from nsrmp_bench.scene import Pose, Scene, SceneObject
 
 

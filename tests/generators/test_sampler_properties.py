@@ -6,13 +6,14 @@ import re
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from nsrmp_bench.generators.sampler import EpisodeConfig, sample_episode
-from nsrmp_bench.generators.templates import load_language
 
 from nsrmp_bench.canonical import canonical_json
+from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.dsl.executor import execute, resolve
 from nsrmp_bench.dsl.program import Program
 from nsrmp_bench.episode import SymbolicEpisode
+from nsrmp_bench.generators.sampler import sample_episode
+from nsrmp_bench.generators.templates import load_language
 
 configs = st.builds(
     EpisodeConfig,
