@@ -169,7 +169,9 @@ class SymbolicEpisode:
             "relational": self.relational,
             "relation_needed": any(r.needed for r in self.references if r.relational),
             "phrasing": self.instruction.phrasing,
-            "template": self.instruction.template_id,
+            # the first step's template: multi-step ids ("T01+T08+...") are in the
+            # instruction; breaking down by every combination would leave cells of one
+            "template": self.instruction.template_id.split("+")[0],
         }
 
     def to_dict(self) -> dict[str, Any]:

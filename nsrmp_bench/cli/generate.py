@@ -1,0 +1,92 @@
+"""``nsrmp-bench generate``: generate (or resume) a split into HDF5 shards.
+
+Example::
+
+    nsrmp-bench generate --split paper-v1 --out data/paper --workers 2
+
+Each part lands in ``OUT/<part>/`` (shards, ``manifest.json``). The bytes do not depend on
+``--workers`` or the order of generation; a rerun after Ctrl-C or a kill keeps the shards
+already complete. The root hash is compared with the committed manifest in ``splits/``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import time
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+
+from nsrmp_bench.cli.progress import episode_progress
+from nsrmp_bench.official_manifests import official_manifest
+from nsrmp_bench.split_specs import load_split
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of the verb."""
+    parser.add_argument("--split", required=True, help="split id, e.g. paper-v1")
+    parser.add_argument("--out", required=True, type=Path, help="output directory")
+    parser.add_argument("--part", action="append", default=None,
+                        help="only this part (repeatable); default: every part")
+    parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    parser.add_argument("--shard-size", type=int, default=100,
+                        help="instances per shard (default 100)")
+    parser.add_argument("--limit", type=int, default=None,
+                        help="only the first N instances of each part (not the official split)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Generate, then print each part's count, time, rate, rejections and root hash."""
+    gen: Any = importlib.import_module("nsrmp_bench.generators.generate")
+    spec = load_split(args.split)
+    parts = args.part or list(spec.parts)
+    for part in parts:
+        spec.part(part)  # unknown part: a clear error before any work
+    console = Console(stderr=True)
+    status = 0
+    for part in parts:
+        out = args.out / part
+        t0 = time.perf_counter()
+        with episode_progress(disable=args.quiet) as progress:
+            task = progress.add_task(f"{spec.id}/{part}", total=None)
+
+            def on_start(total: int, done: int, task: Any = task, progress: Any = progress) -> None:
+                progress.update(task, total=total, completed=done)
+
+            manifest, stats = gen.generate_part(
+                spec, part, out, workers=args.workers, shard_size=args.shard_size,
+                limit=args.limit, on_start=on_start,
+                on_progress=lambda n, task=task, progress=progress: progress.advance(task, n),
+            )
+        wall = time.perf_counter() - t0
+        rate = stats.episodes / wall if stats.episodes else 0.0
+        rejected = sum(stats.rejections.values())
+        console.print(
+            f"{spec.id}/{part}: {manifest.count} episodes in {out} "
+            f"({stats.episodes} generated in {wall:.1f} s, {rate:.1f} ep/s; "
+            f"{rejected} attempts rejected{_reasons(stats)})"
+        )
+        console.print(f"  root hash {manifest.root_hash}")
+        committed = official_manifest(spec.id, part)
+        if committed is not None and args.limit is None:
+            if committed["root_hash"] == manifest.root_hash:
+                console.print("  matches the committed manifest")
+            else:
+                console.print(
+                    "  [red]differs from the committed manifest[/red]: run "
+                    f"`nsrmp-bench verify {out}` to see which episodes and why"
+                )
+                status = 1
+    return status
+
+
+def _reasons(stats: Any) -> str:
+    if not stats.rejections:
+        return ""
+    parts = ", ".join(f"{k} {v}" for k, v in stats.rejections.most_common())
+    return f": {parts}"

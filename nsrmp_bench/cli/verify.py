@@ -1,0 +1,57 @@
+"""``nsrmp-bench verify DATA``: check data against its manifest and the committed one.
+
+Example::
+
+    nsrmp-bench verify data/paper/test
+
+Recomputes every shard's sha256 and every episode's content hash; names what differs and
+why (the manifests record the simulator and package versions and a physics fingerprint).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from rich.console import Console
+
+from nsrmp_bench.verify import verify
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of the verb."""
+    parser.add_argument("data", type=Path, nargs="+",
+                        help="part directories (with manifest.json), or a split directory")
+    parser.add_argument("--shallow", action="store_true",
+                        help="only shard sha256, not every episode's content hash")
+
+
+def _part_dirs(path: Path) -> list[Path]:
+    if (path / "manifest.json").is_file() or not path.is_dir():
+        return [path]
+    parts = sorted(p for p in path.iterdir() if (p / "manifest.json").is_file())
+    return parts or [path]
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print one verdict per part; exit 1 if anything differs."""
+    console = Console()
+    status = 0
+    for given in args.data:
+        for d in _part_dirs(given):
+            report = verify(d, deep=not args.shallow)
+            verdict = "[green]OK[/green]" if report.ok else "[red]DIFFERS[/red]"
+            console.print(
+                f"{report.split} ({d}): {verdict}: {report.shards} shards, "
+                f"{report.episodes} episodes rehashed, root {report.root_hash[:16]}"
+            )
+            if report.committed_root_hash is not None and report.ok:
+                console.print("  matches the committed manifest")
+            for line in report.problems:
+                console.print(f"  - {line}")
+            for line in report.notes:
+                console.print(f"  {line}")
+            status = status or (0 if report.ok else 1)
+    return status

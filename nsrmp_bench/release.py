@@ -1,0 +1,169 @@
+"""Releasing and downloading splits: ``pack`` writes what a mirror hosts, ``download`` fetches it.
+
+A release directory holds, per part, the shard files and ``manifest.json`` under
+``<split>/<part>/``, and ``<split>/registry.txt``: one line ``<part>/<file> <sha256> <bytes>``
+per file (pooch's registry format plus the size). Any static web server or dataset hub can
+host it. ``download`` fetches with pooch, checks every file's sha256 against the registry,
+keeps files already present and correct (resume), and refuses a corrupted one. For the
+official splits the registry is the manifests committed in the package, so a mirror cannot
+substitute other data; other splits take the mirror's ``registry.txt``.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from nsrmp_bench._optional import require
+from nsrmp_bench.canonical import sha256_file
+from nsrmp_bench.errors import DownloadError, InvalidArgument
+from nsrmp_bench.official_manifests import official_manifest, official_manifest_name
+from nsrmp_bench.split_specs import list_splits, load_split
+from nsrmp_bench.storage.manifest import read_manifest
+
+__all__ = ["MIRROR_ENV", "RegistryEntry", "download", "pack", "read_registry"]
+
+MIRROR_ENV = "NSRMP_BENCH_MIRROR"
+"""Environment variable holding the default mirror base URL."""
+REGISTRY_NAME = "registry.txt"
+
+
+@dataclass(frozen=True)
+class RegistryEntry:
+    """One released file: path relative to the split folder, sha256 and size."""
+
+    path: str
+    sha256: str
+    bytes: int
+
+
+def pack(data_dir: str | os.PathLike[str], out: str | os.PathLike[str]) -> list[RegistryEntry]:
+    """Copy a generated split (``data_dir/<part>/``) into ``out/<split>/`` with its registry."""
+    src = Path(data_dir)
+    parts = sorted(p for p in src.iterdir() if (p / "manifest.json").is_file()) \
+        if src.is_dir() and not (src / "manifest.json").is_file() else [src]
+    if not parts or not (parts[0] / "manifest.json").is_file():
+        msg = f"{src} holds no part directory with manifest.json; generate the split first"
+        raise InvalidArgument(msg)
+    entries: list[RegistryEntry] = []
+    split_id = None
+    for part_dir in parts:
+        manifest = read_manifest(part_dir)
+        sid, _, part = manifest.split.partition("/")
+        if split_id not in (None, sid):
+            msg = f"{src} mixes splits {split_id} and {sid}; pack one split at a time"
+            raise InvalidArgument(msg)
+        split_id = sid
+        dest = Path(out) / sid / part
+        dest.mkdir(parents=True, exist_ok=True)
+        for name in [s.file for s in manifest.shards] + ["manifest.json"]:
+            shutil.copyfile(part_dir / name, dest / name)
+            size = (dest / name).stat().st_size
+            entries.append(RegistryEntry(f"{part}/{name}", sha256_file(dest / name), size))
+    if split_id is None:
+        msg = f"{src} holds no manifest; generate the split first"
+        raise InvalidArgument(msg)
+    lines = [f"{e.path} {e.sha256} {e.bytes}" for e in entries]
+    (Path(out) / split_id / REGISTRY_NAME).write_text(
+        f"# nsrmp-bench release registry for {split_id}: <part>/<file> <sha256> <bytes>\n"
+        + "\n".join(lines) + "\n", "utf-8"
+    )
+    return entries
+
+
+def read_registry(text: str, where: str) -> list[RegistryEntry]:
+    """Parse a registry file's text; bad lines name the line and the fix."""
+    out = []
+    for n, line in enumerate(text.splitlines(), 1):
+        if not line.strip() or line.startswith("#"):
+            continue
+        fields = line.split()
+        if len(fields) != 3 or len(fields[1]) != 64 or not fields[2].isdigit():
+            msg = f"{where} line {n}: {line!r} is not '<part>/<file> <sha256> <bytes>'"
+            raise DownloadError(msg)
+        out.append(RegistryEntry(fields[0], fields[1], int(fields[2])))
+    return out
+
+
+def _official_registry(split_id: str) -> list[RegistryEntry] | None:
+    """Shard entries from the committed manifests, or None if the split has none."""
+    if split_id not in list_splits():
+        return None
+    entries: list[RegistryEntry] = []
+    for part in load_split(split_id).parts:
+        m = official_manifest(split_id, part)
+        if m is None:
+            return None
+        entries.extend(RegistryEntry(f"{part}/{s['file']}", s["sha256"], int(s["bytes"]))
+                       for s in m["shards"])
+    return entries
+
+
+def download(
+    split_id: str,
+    out: str | os.PathLike[str],
+    *,
+    base_url: str | None = None,
+    trust_mirror_registry: bool = False,
+    progress: bool = False,
+) -> list[Path]:
+    """Fetch ``split_id`` into ``out/<part>/``; every file checked against the registry.
+
+    For an official split the registry is the committed manifests (the mirror's
+    ``registry.txt`` is not read) and the committed ``manifest.json`` is written locally;
+    otherwise, or with ``trust_mirror_registry``, the mirror's ``registry.txt`` is used.
+    """
+    pooch: Any = require("pooch")
+    pooch.get_logger().setLevel("WARNING")
+    url = base_url or os.environ.get(MIRROR_ENV)
+    if not url:
+        msg = (
+            f"no mirror given for {split_id}: pass --base-url URL or set {MIRROR_ENV}; "
+            f"or generate it locally: nsrmp-bench generate --split {split_id} --out DIR"
+        )
+        raise DownloadError(msg)
+    root = url.rstrip("/") + f"/{split_id}/"
+    out_dir = Path(out)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    registry = None if trust_mirror_registry else _official_registry(split_id)
+    official = registry is not None
+    if registry is None:
+        reg = _fetch(pooch, root + REGISTRY_NAME, out_dir, None)
+        registry = read_registry(reg.read_text("utf-8"), root + REGISTRY_NAME)
+        reg.unlink()
+    files = [_fetch(pooch, root + e.path, out_dir, e, progress=progress) for e in registry]
+    if official:
+        for part in load_split(split_id).parts:
+            committed = official_manifest(split_id, part)
+            assert committed is not None
+            text = resources.files("nsrmp_bench.splits").joinpath(
+                "manifests", official_manifest_name(split_id, part)).read_text("utf-8")
+            (out_dir / part / "manifest.json").write_text(text, "utf-8")
+    return files
+
+
+def _fetch(pooch: Any, url: str, out_dir: Path, entry: RegistryEntry | None,
+           *, progress: bool = False) -> Path:
+    name = entry.path if entry is not None else REGISTRY_NAME
+    target = out_dir / name
+    known = None if entry is None else f"sha256:{entry.sha256}"
+    if entry is not None and target.is_file() and sha256_file(target) == entry.sha256:
+        return target  # resume: already here and correct
+    try:
+        path = pooch.retrieve(url, known_hash=known, fname=Path(name).name,
+                              path=target.parent, progressbar=progress)
+    except ValueError as exc:  # pooch: hash mismatch; it deleted the download
+        msg = (
+            f"{url}: the downloaded file does not match the registry's sha256 "
+            f"{entry.sha256 if entry else ''} and was deleted ({exc}); the mirror's copy is "
+            "corrupted: retry later or use another mirror"
+        )
+        raise DownloadError(msg) from exc
+    except Exception as exc:  # requests/urllib errors: name the URL and the fix
+        msg = f"could not fetch {url} ({type(exc).__name__}: {exc}); check the mirror URL"
+        raise DownloadError(msg) from exc
+    return Path(path)
