@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from nsrmp_bench import __version__
+from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.episode import Episode, SeedInfo
 from nsrmp_bench.errors import GenerationError
 from nsrmp_bench.generators.sampler import sample_symbolic
@@ -37,6 +38,7 @@ __all__ = [
     "generate_part",
     "generate_split",
     "make_episode",
+    "realise_config",
     "physics_fingerprint",
     "versions",
 ]
@@ -65,24 +67,28 @@ def _reason(exc: GenerationError) -> str:
     return f"physics:{code}" if code else "symbolic"
 
 
-def make_episode(
-    spec: SplitSpec, part: str, index: int, world: Any, stats: GenerationStats | None = None
+def realise_config(
+    config: EpisodeConfig,
+    entropy: int,
+    index: int,
+    episode_id: str,
+    world: Any,
+    *,
+    executor: str = "teleport",
+    stats: GenerationStats | None = None,
 ) -> Episode:
-    """Instance ``index`` of ``spec``'s ``part``, realised in ``world`` (a World)."""
+    """The first attempt of instance ``index`` that samples and realises without rejection."""
     from nsrmp_bench.generators.world.realise import realise
 
-    part_spec = spec.part(part)
-    config = spec.config(part, index)
-    episode_id = spec.episode_id(part, index)
     last: GenerationError | None = None
     for attempt in range(MAX_ATTEMPTS):
         if stats is not None:
             stats.attempts += 1
-        seed = SeedInfo(part_spec.entropy, index, attempt)
+        seed = SeedInfo(entropy, index, attempt)
         try:
             symbolic = sample_symbolic(config, seed, episode_id)
             rendering = realise(symbolic.scene, symbolic.states, symbolic.grounded, world,
-                                executor=spec.executor)
+                                executor=executor)
         except GenerationError as exc:
             last = exc
             if stats is not None:
@@ -93,9 +99,19 @@ def make_episode(
         return Episode(symbolic, rendering)
     msg = (
         f"{episode_id}: no valid instance in {MAX_ATTEMPTS} attempts; last rejection: {last}. "
-        "The split spec asks for something the world cannot realise; relax it"
+        "The config asks for something the world cannot realise; relax it"
     )
     raise GenerationError(msg)
+
+
+def make_episode(
+    spec: SplitSpec, part: str, index: int, world: Any, stats: GenerationStats | None = None
+) -> Episode:
+    """Instance ``index`` of ``spec``'s ``part``, realised in ``world`` (a World)."""
+    return realise_config(
+        spec.config(part, index), spec.part(part).entropy, index,
+        spec.episode_id(part, index), world, executor=spec.executor, stats=stats,
+    )
 
 
 # -- worker side ---------------------------------------------------------------------

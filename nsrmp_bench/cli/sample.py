@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from pathlib import Path
 from typing import Any
 
 from nsrmp_bench.canonical import canonical_json
@@ -39,6 +40,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--held-out", default="exclude", choices=("exclude", "require"),
                         help="'require' uses held-out templates/synonyms (the language split)")
     parser.add_argument("--indent", type=int, default=None, help="pretty-print with this indent")
+    parser.add_argument(
+        "--render", type=Path, default=None, metavar="OUT",
+        help="also realise it in PyBullet and write OUT/<episode id>/ (HDF5 shard + manifest)",
+    )
+    parser.add_argument("--executor", default="teleport", choices=("teleport", "robot"),
+                        help="with --render: teleport-and-settle, or the Panda's pick-and-place")
+    parser.add_argument("--width", type=int, default=320, help="with --render: image width")
+    parser.add_argument("--height", type=int, default=240, help="with --render: image height")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -49,6 +58,8 @@ def run(args: argparse.Namespace) -> int:
         phrasing=args.phrasing, held_out=args.held_out,
     )
     episode_id = f"sample-{args.seed}-{args.index}"
+    if args.render is not None:
+        return _render(args, config, episode_id)
     episode = sampler.sample_episode(config, args.seed, args.index, episode_id)
     data = episode.to_dict()
     if args.indent is None:
@@ -57,4 +68,22 @@ def run(args: argparse.Namespace) -> int:
         import json
 
         sys.stdout.write(json.dumps(data, indent=args.indent, sort_keys=True) + "\n")
+    return 0
+
+
+def _render(args: argparse.Namespace, config: Any, episode_id: str) -> int:
+    """Realise the episode (next attempt on a physics rejection) and store it."""
+    from nsrmp_bench.storage.resume import write_dataset
+
+    gen: Any = importlib.import_module("nsrmp_bench.generators.generate")
+    world_mod: Any = importlib.import_module("nsrmp_bench.generators.world.world")
+    from nsrmp_bench.geometry.default_camera import official_camera
+
+    with world_mod.World(official_camera(args.width, args.height)) as world:
+        episode = gen.realise_config(config, args.seed, args.index, episode_id, world,
+                                     executor=args.executor)
+    out = args.render / episode_id
+    write_dataset(out, lambda _i: episode, 0, 1, shard_size=1, split="sample")
+    sys.stderr.write(f"{episode.symbolic.instruction.text}\nwrote {out}\n")
+    sys.stdout.write(f"{out}\n")
     return 0

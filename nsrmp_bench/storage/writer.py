@@ -1,0 +1,257 @@
+"""Writing episodes into HDF5 shards, crash-safely.
+
+A :class:`ShardWriter` writes ``shard-AAAAAAA-BBBBBBB.h5.tmp``, flushes after every
+episode, and on :meth:`ShardWriter.commit` closes, fsyncs, renames the file to its final
+name and then writes its record (``.record.json``). A killed writer leaves only ``*.tmp``
+files, which :func:`~nsrmp_bench.storage.resume.scan_output` removes.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import h5py
+import numpy as np
+from numpy.typing import NDArray
+
+from nsrmp_bench import __version__
+from nsrmp_bench.canonical import canonical_json, sha256_file
+from nsrmp_bench.dsl.program import load_signatures
+from nsrmp_bench.episode import SCHEMA_VERSION, Episode
+from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.storage.arrays import episode_arrays
+from nsrmp_bench.storage.hashing import episode_hash
+from nsrmp_bench.storage.layout import (
+    FORMAT,
+    LIBVER,
+    TMP_SUFFIX,
+    check_episode_id,
+    create_group,
+    image_codec,
+    shard_filename,
+    small_codec,
+)
+from nsrmp_bench.storage.records import EpisodeEntry, ShardRecord, fsync_dir
+from nsrmp_bench.vocabulary import vocabulary_dict
+
+__all__ = ["ShardWriter", "write_episode_group", "write_shard"]
+
+_STR = h5py.string_dtype("utf-8")
+
+
+def _put_string(group: h5py.Group, name: str, text: str) -> None:
+    group.create_dataset(name, data=np.array(text, dtype=_STR), dtype=_STR, track_times=False)
+
+
+def _put_array(group: h5py.Group, name: str, arr: NDArray[Any], kw: Mapping[str, Any]) -> None:
+    group.create_dataset(name, data=arr, track_times=False, **kw)
+
+
+def write_episode_group(parent: h5py.Group, episode: Episode, index: int, ehash: str) -> None:
+    """Write one episode as ``parent/<id>`` in the layout of :mod:`~nsrmp_bench.storage.layout`."""
+    sym = episode.symbolic
+    arrays = episode_arrays(episode)
+    g = create_group(parent, check_episode_id(sym.id))
+    g.attrs["id"] = sym.id
+    g.attrs["index"] = np.int64(index)
+    g.attrs["content_hash"] = ehash
+    g.attrs["num_steps"] = np.int64(sym.num_steps)
+    g.attrs["num_objects"] = np.int64(sym.num_objects)
+    g.attrs["seed"] = canonical_json(sym.seed.to_dict())
+    g.attrs["generator"] = sym.generator
+    r = episode.rendering
+    g.attrs["has_rendering"] = np.bool_(r is not None)
+    g.attrs["has_images"] = np.bool_("observations/rgb" in arrays)
+    if r is not None:
+        g.attrs["camera"] = canonical_json(r.camera.to_dict())
+        g.attrs["executor"] = r.executor
+        # a dataset, not an attribute: robot executors can record more than 64 KiB
+        _put_string(g, "physics", canonical_json(r.physics))
+
+    inputs = create_group(g, "inputs")
+    _put_string(inputs, "instruction", sym.instruction.text)
+    targets = create_group(g, "targets")
+    _put_string(targets, "symbolic", canonical_json(sym.to_dict()))
+    _put_string(targets, "program", sym.program.text())
+
+    if "observations/rgb" in arrays:
+        in_obs = create_group(inputs, "obs")
+        tg_obs = create_group(targets, "obs")
+        for key in ("rgb", "depth"):
+            arr = arrays[f"observations/{key}"]
+            first, later = arr[0], arr[1:]
+            _put_array(in_obs, key, first, image_codec(first.shape, first.dtype, stacked=False))
+            _put_array(tg_obs, key, later, image_codec(later.shape, later.dtype, stacked=True))
+        seg = arrays["observations/segmentation"]
+        _put_array(tg_obs, "segmentation", seg, image_codec(seg.shape, seg.dtype, stacked=True))
+    if r is not None:
+        for key in ("boxes_amodal", "boxes_visible"):
+            _put_array(inputs, key, arrays[f"targets/{key}"][0], small_codec())
+        for key in ("poses", "boxes_amodal", "boxes_visible", "visible_fraction",
+                    "depth_centre"):
+            _put_array(targets, key, arrays[f"targets/{key}"], small_codec())
+        if r.trajectory is not None:
+            robot = create_group(targets, "robot")
+            robot.attrs["joint_names"] = canonical_json(list(r.trajectory.joint_names))
+            for key in ("time", "joint_positions", "ee_pose", "gripper", "step"):
+                _put_array(robot, key, arrays[f"trajectory/{key}"], small_codec())
+
+
+class ShardWriter:
+    """Writes the episodes of instance indices ``start <= i < stop`` into one shard.
+
+    Use as a context manager; episodes must come in index order (``seed.index`` is the
+    instance index). Leaving the block normally commits, an exception aborts (removes the
+    ``.tmp``). A committed shard has its final name and a ``.record.json`` next to it.
+    """
+
+    def __init__(
+        self,
+        out_dir: str | os.PathLike[str],
+        start: int,
+        stop: int,
+        *,
+        split: str,
+        package_version: str = __version__,
+    ) -> None:
+        self.out_dir = Path(out_dir)
+        self.start, self.stop = start, stop
+        self.file = shard_filename(start, stop)
+        self.split = split
+        self.package_version = package_version
+        self.path = self.out_dir / self.file
+        self.tmp_path = self.out_dir / (self.file + TMP_SUFFIX)
+        self._entries: list[EpisodeEntry] = []
+        self._generators: list[str] = []
+        self._camera: str | None = None
+        self._next = start
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        self._f: h5py.File | None = h5py.File(self.tmp_path, "w", libver=LIBVER)
+        self._f.attrs["format"] = FORMAT
+        self._f.attrs["schema_version"] = SCHEMA_VERSION
+        self._data = create_group(self._f, "data")
+
+    @property
+    def next_index(self) -> int:
+        """The instance index the next episode must have."""
+        return self._next
+
+    def add(self, episode: Episode) -> str:
+        """Write one episode (then flush); returns its content hash."""
+        if self._f is None:
+            msg = f"shard {self.file} is already committed or aborted; open a new ShardWriter"
+            raise InvalidArgument(msg)
+        index = episode.symbolic.seed.index
+        if index != self._next:
+            msg = (
+                f"shard {self.file} expects instance index {self._next} next, got episode "
+                f"{episode.id} with seed.index {index}; add episodes in index order"
+            )
+            raise InvalidArgument(msg)
+        if index >= self.stop:
+            msg = f"shard {self.file} covers indices [{self.start}, {self.stop}); got {index}"
+            raise InvalidArgument(msg)
+        ehash = episode_hash(episode)
+        write_episode_group(self._data, episode, index, ehash)
+        self._f.flush()
+        self._entries.append(EpisodeEntry(index, episode.id, ehash,
+                                          episode.symbolic.categories()))
+        self._generators.append(episode.symbolic.generator)
+        if self._camera is None and episode.rendering is not None:
+            self._camera = canonical_json(episode.rendering.camera.to_dict())
+        self._next += 1
+        return ehash
+
+    def commit(self) -> ShardRecord:
+        """Finish the file, fsync, rename to its final name, write its record."""
+        f = self._f
+        if f is None:
+            msg = f"shard {self.file} is already committed or aborted"
+            raise InvalidArgument(msg)
+        if self._next != self.stop:
+            msg = (
+                f"shard {self.file} covers indices [{self.start}, {self.stop}) but holds "
+                f"{self._next - self.start} episodes; add the missing ones before commit"
+            )
+            raise InvalidArgument(msg)
+        vocab = vocabulary_dict()
+        f.attrs["units"] = canonical_json(vocab["units"])
+        f.attrs["vocabulary"] = canonical_json(vocab)
+        f.attrs["camera"] = self._camera if self._camera is not None else "null"
+        f.attrs["split"] = self.split
+        generator = ",".join(sorted(set(self._generators)))
+        f.attrs["generator"] = generator
+        f.attrs["package_version"] = self.package_version
+        f.attrs["dsl"] = str(load_signatures().get("version", ""))
+        f.attrs["index_start"] = np.int64(self.start)
+        f.attrs["index_stop"] = np.int64(self.stop)
+        f.attrs["num_episodes"] = np.int64(len(self._entries))
+        self._data.attrs["total"] = np.int64(len(self._entries))
+        # robomimic's mask/<filter key>; a split such as "paper-v1/train" nests
+        parts = [p for p in (self.split or "all").split("/") if p not in ("", ".", "..")]
+        group = create_group(f, "mask")
+        for part in parts[:-1]:
+            group = create_group(group, part)
+        ids = np.array([e.id for e in self._entries], dtype=_STR)
+        group.create_dataset(parts[-1] if parts else "all", data=ids, dtype=_STR,
+                             track_times=False)
+        rows = [{"id": e.id, "index": e.index, **e.categories} for e in self._entries]
+        _put_string(f, "index", json.dumps(rows, sort_keys=True, separators=(",", ":"),
+                                           allow_nan=False))
+        f.close()
+        self._f = None
+        with open(self.tmp_path, "rb+") as fh:
+            os.fsync(fh.fileno())
+        sha = sha256_file(self.tmp_path)
+        size = self.tmp_path.stat().st_size
+        os.replace(self.tmp_path, self.path)
+        fsync_dir(self.out_dir)
+        record = ShardRecord(self.file, self.start, self.stop, sha, size, self.split,
+                             tuple(self._entries), generator)
+        record.write(self.out_dir)
+        return record
+
+    def abort(self) -> None:
+        """Close and remove the partial file."""
+        if self._f is not None:
+            self._f.close()
+            self._f = None
+        self.tmp_path.unlink(missing_ok=True)
+
+    def __enter__(self) -> ShardWriter:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if exc_type is not None:
+            self.abort()
+        elif self._f is not None:
+            self.commit()
+
+
+def write_shard(
+    out_dir: str | os.PathLike[str],
+    start: int,
+    episodes: list[Episode] | tuple[Episode, ...],
+    *,
+    split: str,
+    package_version: str = __version__,
+) -> ShardRecord:
+    """Write ``episodes`` (instance indices ``start``, ``start+1`` ...) as one shard."""
+    if not episodes:
+        msg = f"write_shard needs at least one episode for the shard starting at {start}"
+        raise InvalidArgument(msg)
+    with ShardWriter(out_dir, start, start + len(episodes), split=split,
+                     package_version=package_version) as w:
+        for ep in episodes:
+            w.add(ep)
+        return w.commit()
