@@ -1,0 +1,91 @@
+"""The non-learned baselines by id, and running one over a split into a predictions file.
+
+Each baseline maps (episode, Generator) to a :class:`Prediction`; the Generator is derived
+per instance from (seed, instance id), so an instance's prediction does not depend on
+which other instances are predicted or in what order.
+"""
+
+from __future__ import annotations
+
+import difflib
+import hashlib
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from nsrmp_bench.baselines.noop import noop_prediction
+from nsrmp_bench.baselines.oracle import oracle_prediction
+from nsrmp_bench.baselines.random_steps import random_prediction
+from nsrmp_bench.episode import Episode, SymbolicEpisode
+from nsrmp_bench.errors import InvalidArgument, UnknownId
+from nsrmp_bench.scoring.submission import Prediction, SubmissionHeader, write_submission
+
+__all__ = ["BASELINES", "Baseline", "get_baseline", "predict", "run_baseline"]
+
+PredictFn = Callable[[Episode, np.random.Generator], Prediction]
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """A registered baseline: id, what it does, and its per-episode prediction function."""
+
+    id: str
+    description: str
+    predict: PredictFn
+
+
+BASELINES: dict[str, Baseline] = {
+    b.id: b
+    for b in (
+        Baseline("oracle-v1", "gold program executed symbolically (upper bound)",
+                 oracle_prediction),
+        Baseline("noop-v1", "nothing moves: final boxes = initial boxes (floor)",
+                 noop_prediction),
+        Baseline("random-v1", "a random legal step per gold step", random_prediction),
+    )
+}
+"""Baseline id (``name-vN``) -> baseline."""
+
+
+def get_baseline(name: str) -> Baseline:
+    """The baseline ``name`` (an id, or a bare name meaning its latest version)."""
+    if name in BASELINES:
+        return BASELINES[name]
+    versions = sorted((k for k in BASELINES if k.rsplit("-v", 1)[0] == name), reverse=True)
+    if versions:
+        return BASELINES[versions[0]]
+    names = [*BASELINES, *(k.rsplit("-v", 1)[0] for k in BASELINES)]
+    close = difflib.get_close_matches(name, names, n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    msg = f"unknown baseline {name!r}{hint} Known baselines: {', '.join(BASELINES)}"
+    raise UnknownId(msg)
+
+
+def predict(
+    baseline: Baseline, episodes: Iterable[Episode | SymbolicEpisode], seed: int = 0
+) -> Iterator[Prediction]:
+    """The baseline's predictions, one per episode, in order."""
+    if not isinstance(seed, int) or seed < 0:
+        msg = f"seed must be a non-negative integer, got {seed!r}"
+        raise InvalidArgument(msg)
+    for item in episodes:
+        ep = item if isinstance(item, Episode) else Episode(item)
+        key = int.from_bytes(hashlib.sha256(ep.id.encode("utf-8")).digest()[:8], "little")
+        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(key,)))
+        yield baseline.predict(ep, rng)
+
+
+def run_baseline(
+    name: str,
+    episodes: Iterable[Episode | SymbolicEpisode],
+    out: str | Path,
+    *,
+    split: str,
+    seed: int = 0,
+) -> Path:
+    """Write baseline ``name``'s predictions for ``episodes`` (split ``split``) to ``out``."""
+    baseline = get_baseline(name)
+    header = SubmissionHeader(split=split, model=baseline.id, extra={"seed": seed})
+    return write_submission(out, header, predict(baseline, episodes, seed))

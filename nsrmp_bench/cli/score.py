@@ -1,0 +1,75 @@
+"""``nsrmp-bench score``: score a predictions file against a split's data.
+
+Example::
+
+    nsrmp-bench score predictions.jsonl --data data/smoke/test --json scores.json
+
+Prints the figures (IoU-M first, with 95% bootstrap intervals and instance counts), IoU-M
+after each step, and the breakdown by steps, objects, relational, phrasing and template;
+``--json`` writes all of it. A malformed file is refused with every problem listed by line.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from nsrmp_bench.scoring.scorer import DEFAULT_N_BOOT, DEFAULT_SEED, score
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_common(parser: argparse.ArgumentParser) -> None:
+    """Arguments shared by ``score`` and ``compare``."""
+    parser.add_argument("--data", required=True, type=Path,
+                        help="the split's data (a data directory or shard, or a .jsonl of "
+                             "symbolic episodes)")
+    parser.add_argument("--split", default=None,
+                        help="split id, when the data does not record it")
+    parser.add_argument("--seed", type=int, default=DEFAULT_SEED,
+                        help=f"seed of the bootstrap (default {DEFAULT_SEED})")
+    parser.add_argument("--n-boot", type=int, default=DEFAULT_N_BOOT,
+                        help=f"bootstrap resamples (default {DEFAULT_N_BOOT}; 0: no intervals)")
+    parser.add_argument("--level", type=float, default=0.95,
+                        help="confidence level of the intervals (default 0.95)")
+    parser.add_argument("--allow-unknown-ids", action="store_true",
+                        help="ignore (and count) lines whose id is not in the split instead "
+                             "of refusing the file")
+    parser.add_argument("--json", type=Path, default=None, help="write the figures as JSON")
+    parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of the verb."""
+    parser.add_argument("predictions", type=Path, help="predictions file (.jsonl or .parquet)")
+    add_common(parser)
+    parser.add_argument("--no-breakdown", action="store_true",
+                        help="skip the per-category breakdown")
+    parser.add_argument("--no-breakdown-intervals", action="store_true",
+                        help="breakdown means and counts only, no intervals (much faster on "
+                             "huge splits)")
+    parser.add_argument("--per-instance", type=Path, default=None,
+                        help="also write each instance's values (.csv, or .parquet)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Score, print, and write what was asked for."""
+    result = score(
+        args.predictions, args.data, seed=args.seed, n_boot=args.n_boot, level=args.level,
+        breakdown=not args.no_breakdown,
+        breakdown_intervals=not args.no_breakdown_intervals, split=args.split,
+        unknown_ids="warn" if args.allow_unknown_ids else "error",
+    )
+    if not args.quiet:
+        result.render()
+    if args.json is not None:
+        result.write_json(args.json)
+    if args.per_instance is not None:
+        if args.per_instance.suffix == ".parquet":
+            from nsrmp_bench._optional import require
+
+            require("pyarrow")
+            result.per_instance.to_parquet(args.per_instance)
+        else:
+            result.per_instance.to_csv(args.per_instance)
+    return 0

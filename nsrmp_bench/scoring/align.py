@@ -1,0 +1,312 @@
+"""Matching a checked submission to a split's instances: the checks that need the gold.
+
+:func:`align` refuses (with one :class:`~nsrmp_bench.errors.SubmissionError` naming every
+line) a submission for another split, ids that are not in the split, wrong object or step
+counts, and boxes or points outside the image. Coordinates at most ``clip_tolerance``
+pixels outside the image are clipped onto it and counted (gold amodal boxes are clipped
+the same way). Instances without a line are *missing*: they stay in the table, flagged,
+and score zero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nsrmp_bench.errors import InvalidArgument, SubmissionError
+from nsrmp_bench.scoring.gold import GoldTable
+from nsrmp_bench.scoring.ragged import gather_rows, offsets_from_lengths, row_ids
+from nsrmp_bench.scoring.submission import Submission, SubmissionHeader
+from nsrmp_bench.scoring.validate import MAX_SHOWN, Problems
+
+__all__ = ["CLIP_TOLERANCE", "PredictionTable", "align", "split_matches"]
+
+F64 = NDArray[np.float64]
+I64 = NDArray[np.int64]
+B = NDArray[np.bool_]
+
+CLIP_TOLERANCE = 1.0
+"""Pixels a coordinate may lie outside the image and still be clipped (with a warning)."""
+
+
+@dataclass(frozen=True, eq=False)
+class PredictionTable:
+    """A submission laid out like its :class:`GoldTable`: same instances, objects, steps."""
+
+    header: SubmissionHeader
+    source: str
+    present: B  # (I,) the instance has a line
+    line: I64  # (I,) its line (row) number, -1 if missing
+    boxes: F64  # (O, 4), zeros where missing
+    has_step_boxes: B  # (I,)
+    step_boxes: F64  # (P, 4), laid out like gold.step_boxes; zeros where absent
+    has_program: B  # (I,)
+    program_offsets: I64  # (I+1,)
+    actions: NDArray[np.int8]  # (U,)
+    subjects: I64  # (U,)
+    references: I64  # (U,)
+    pick: F64  # (I, 2), NaN where absent
+    place: F64  # (I, 2), NaN where absent
+    has_positions: B  # (I,)
+    positions: F64  # (O, 3), NaN where absent
+    counts: dict[str, int] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def n_program_steps(self) -> I64:
+        """Predicted steps per instance (0 where no program)."""
+        out: I64 = np.diff(self.program_offsets)
+        return out
+
+
+def split_matches(declared: str, data: str) -> bool:
+    """Whether a header's split id names the data's: the same id, or the split of the data's
+    part (``paper-v1`` for data ``paper-v1/test``; the ids then tell the parts apart)."""
+    return declared == data or data.startswith(declared + "/")
+
+
+def _bounds(
+    arr: F64,
+    width: F64,
+    height: F64,
+    tol: float,
+) -> tuple[B, B]:
+    """Per row: outside the image by more than ``tol``; and outside it at all."""
+    x = arr[:, 0::2]
+    y = arr[:, 1::2]
+    w = width[:, None]
+    h = height[:, None]
+    far = np.asarray(((x < -tol) | (x > w + tol) | (y < -tol) | (y > h + tol)).any(axis=1))
+    out = np.asarray(((x < 0) | (x > w) | (y < 0) | (y > h)).any(axis=1))
+    return far, out
+
+
+def align(
+    submission: Submission,
+    gold: GoldTable,
+    *,
+    unknown_ids: str = "error",
+    clip_tolerance: float = CLIP_TOLERANCE,
+    pending: Problems | None = None,
+) -> PredictionTable:
+    """Lay ``submission`` out like ``gold``, or raise SubmissionError naming every problem.
+
+    ``unknown_ids="warn"`` ignores lines whose id is not in the split, counting and
+    listing them in the warnings instead of refusing the file. ``pending`` holds problems
+    already found in the file (see ``read_submission_pending``); they are raised together
+    with these.
+    """
+    if unknown_ids not in ("error", "warn"):
+        msg = f"unknown_ids must be 'error' or 'warn', got {unknown_ids!r}"
+        raise InvalidArgument(msg)
+    sub = submission
+    problems = pending if pending is not None else Problems(sub.source)
+    warnings: list[str] = []
+    if gold.split is None:
+        warnings.append(
+            f"the data records no split id, so the header's split {sub.header.split!r} was "
+            "not checked against it"
+        )
+    elif not split_matches(sub.header.split, gold.split):
+        msg = (
+            f"{sub.source}: the header says split {sub.header.split!r} but the data is split "
+            f"{gold.split!r}; score the file against {sub.header.split!r} data, or predict on "
+            f"{gold.split!r} and write its id in the header"
+        )
+        if problems.count:
+            msg += "\n" + problems.message()
+        raise SubmissionError(msg)
+
+    n_rec = len(sub)
+    rec_g = np.array([gold.index.get(i, -1) for i in sub.ids], dtype=np.int64)
+    unknown = np.flatnonzero(rec_g < 0)
+    split_name = gold.split or "the data"
+    if len(unknown):
+        if unknown_ids == "error":
+            for r in unknown[:MAX_SHOWN].tolist():
+                problems.add(
+                    sub.where(r),
+                    f"id {sub.ids[r]!r} is not an instance of {split_name}; remove the line "
+                    "(or score with unknown ids ignored: --allow-unknown-ids)",
+                )
+            problems.count += len(unknown) - min(len(unknown), MAX_SHOWN)
+        else:
+            shown = ", ".join(sub.where(r) for r in unknown[:10].tolist())
+            more = f" and {len(unknown) - 10} more" if len(unknown) > 10 else ""
+            warnings.append(
+                f"{len(unknown)} line(s) with ids not in {split_name} were ignored: "
+                f"{shown}{more}"
+            )
+
+    known = rec_g >= 0
+    g_safe = np.where(known, rec_g, 0)
+    n_obj_gold = gold.n_objects[g_safe]
+    bad_count = known & (sub.n_objects != n_obj_gold)
+    for r in np.flatnonzero(bad_count)[:MAX_SHOWN].tolist():
+        problems.add(
+            sub.where(r),
+            f"'boxes' has {int(sub.n_objects[r])} boxes but instance {sub.ids[r]!r} has "
+            f"{int(n_obj_gold[r])} objects; give one box per object, in the episode's "
+            "object order",
+        )
+    problems.count += max(0, int(bad_count.sum()) - MAX_SHOWN)
+    ok = known & ~bad_count
+    n_steps_gold = gold.n_steps[g_safe]
+    bad_states = ok & sub.has_step_boxes & (sub.n_step_states != n_steps_gold)
+    for r in np.flatnonzero(bad_states)[:MAX_SHOWN].tolist():
+        problems.add(
+            sub.where(r),
+            f"'step_boxes' has {int(sub.n_step_states[r])} lists but instance "
+            f"{sub.ids[r]!r} has {int(n_steps_gold[r])} steps; give the boxes after each "
+            "step (or leave step_boxes out)",
+        )
+    problems.count += max(0, int(bad_states.sum()) - MAX_SHOWN)
+    ok &= ~bad_states
+
+    # Image bounds: far outside is an error; slightly outside is clipped and counted.
+    size = gold.image_size[g_safe].astype(np.float64)
+    clipped = 0
+    boxes = sub.boxes.copy()
+    step_boxes = sub.step_boxes.copy()
+    pick = sub.pick.copy()
+    place = sub.place.copy()
+    checks: list[tuple[str, F64, I64, I64 | None]] = [
+        ("boxes", boxes, sub.obj_offsets, None),
+        ("step_boxes", step_boxes, sub.stepbox_offsets, sub.n_objects),
+    ]
+    for name, arr, offsets, per_state in checks:
+        rec = row_ids(offsets)
+        rows_ok = ok[rec]
+        far, out = _bounds(arr, size[rec, 0], size[rec, 1], clip_tolerance)
+        far &= rows_ok
+        for row in np.flatnonzero(far)[:MAX_SHOWN].tolist():
+            r = int(rec[row])
+            k = row - int(offsets[r])
+            path = f"{name}[{k}]"
+            if per_state is not None:
+                path = f"{name}[{k // int(per_state[r])}][{k % int(per_state[r])}]"
+            w, h = (int(v) for v in size[r])
+            problems.add(
+                sub.where(r),
+                f"{path} = {[float(v) for v in arr[row]]} lies outside the {w}x{h} image; "
+                f"boxes are pixel [x1, y1, x2, y2] with 0 <= x <= {w} and 0 <= y <= {h} "
+                "(scale normalised coordinates to pixels; clip boxes to the image)",
+            )
+        problems.count += max(0, int(far.sum()) - MAX_SHOWN)
+        fix = out & rows_ok & ~far
+        if fix.any():
+            clipped += int(fix.sum())
+            wx = size[rec[fix], 0][:, None]
+            hy = size[rec[fix], 1][:, None]
+            arr[fix, 0::2] = np.clip(arr[fix, 0::2], 0.0, wx)
+            arr[fix, 1::2] = np.clip(arr[fix, 1::2], 0.0, hy)
+    points = (
+        ("pick", pick, ~np.isnan(sub.pick[:, 0])),
+        ("place", place, ~np.isnan(sub.place[:, 0])),
+    )
+    for name, pts, has in points:
+        rows = ok & has
+        two = np.concatenate([pts, pts], axis=1)
+        far, out = _bounds(np.nan_to_num(two), size[:, 0], size[:, 1], clip_tolerance)
+        far &= rows
+        for r in np.flatnonzero(far)[:MAX_SHOWN].tolist():
+            w, h = (int(v) for v in size[r])
+            problems.add(
+                sub.where(r),
+                f"{name} = {[float(v) for v in pts[r]]} lies outside the {w}x{h} image; it is "
+                "a pixel location [x, y]",
+            )
+        problems.count += max(0, int(far.sum()) - MAX_SHOWN)
+        fix = out & rows & ~far
+        if fix.any():
+            clipped += int(fix.sum())
+            pts[fix, 0] = np.clip(pts[fix, 0], 0.0, size[fix, 0])
+            pts[fix, 1] = np.clip(pts[fix, 1], 0.0, size[fix, 1])
+    problems.raise_if_any()
+    if clipped:
+        warnings.append(
+            f"{clipped} box(es) or point(s) lay up to {clip_tolerance:g} px outside the image "
+            "and were clipped onto it"
+        )
+
+    # Lay the matched records out in gold order.
+    n_inst = gold.n_instances
+    recs = np.flatnonzero(ok)
+    g_of = rec_g[recs]
+    order = np.argsort(g_of, kind="stable")
+    recs, g_of = recs[order], g_of[order]
+    present = np.zeros(n_inst, dtype=bool)
+    present[g_of] = True
+    line = np.full(n_inst, -1, dtype=np.int64)
+    line[g_of] = sub.lines[recs]
+
+    pred_boxes = np.zeros_like(gold.final_boxes)
+    src, _ = gather_rows(sub.obj_offsets, recs)
+    dst, _ = gather_rows(gold.obj_offsets, g_of)
+    pred_boxes[dst] = boxes[src]
+
+    pred_pos = np.full_like(gold.final_positions, np.nan)
+    pred_pos[dst] = sub.positions[src]
+    has_pos = np.zeros(n_inst, dtype=bool)
+    has_pos[g_of] = sub.has_positions[recs]
+
+    has_sb = np.zeros(n_inst, dtype=bool)
+    has_sb[g_of] = sub.has_step_boxes[recs]
+    pred_sb = np.zeros_like(gold.step_boxes)
+    sb_recs = recs[sub.has_step_boxes[recs]]
+    src, _ = gather_rows(sub.stepbox_offsets, sb_recs)
+    dst, _ = gather_rows(gold.stepbox_offsets, rec_g[sb_recs])
+    pred_sb[dst] = step_boxes[src]
+
+    has_prog = np.zeros(n_inst, dtype=bool)
+    has_prog[g_of] = sub.has_program[recs]
+    prog_len = np.zeros(n_inst, dtype=np.int64)
+    prog_len[g_of] = np.diff(sub.program_offsets)[recs]
+    src, _ = gather_rows(sub.program_offsets, recs)
+    prog_off = offsets_from_lengths(prog_len)
+
+    pick_g = np.full((n_inst, 2), np.nan)
+    pick_g[g_of] = pick[recs]
+    place_g = np.full((n_inst, 2), np.nan)
+    place_g[g_of] = place[recs]
+
+    counts = {
+        "instances": n_inst,
+        "lines": n_rec,
+        "predicted": len(recs),
+        "missing": n_inst - len(recs),
+        "unknown_ids_ignored": len(unknown),
+        "clipped": clipped,
+        "with_program": int(has_prog.sum()),
+        "with_step_boxes": int(has_sb.sum()),
+        "with_positions": int(has_pos.sum()),
+        "with_pick": int((present & ~np.isnan(pick_g[:, 0])).sum()),
+        "with_place": int((present & ~np.isnan(place_g[:, 0])).sum()),
+    }
+    if counts["missing"]:
+        warnings.append(
+            f"{counts['missing']} of {n_inst} instances have no prediction; they score zero "
+            "on every metric"
+        )
+    return PredictionTable(
+        header=sub.header,
+        source=sub.source,
+        present=present,
+        line=line,
+        boxes=pred_boxes,
+        has_step_boxes=has_sb,
+        step_boxes=pred_sb,
+        has_program=has_prog,
+        program_offsets=prog_off,
+        actions=sub.actions[src],
+        subjects=sub.subjects[src],
+        references=sub.references[src],
+        pick=pick_g,
+        place=place_g,
+        has_positions=has_pos,
+        positions=pred_pos,
+        counts=counts,
+        warnings=tuple(warnings),
+    )

@@ -1,0 +1,137 @@
+"""Reading a predictions file (JSON Lines or Parquet) into a checked :class:`Submission`."""
+
+from __future__ import annotations
+
+import gc
+import json
+from pathlib import Path
+from typing import Any
+
+from nsrmp_bench.errors import MissingExtra, SubmissionError
+from nsrmp_bench.scoring.submission import PARQUET_COLUMNS, PARQUET_HEADER_KEY, Submission
+from nsrmp_bench.scoring.validate import Problems, SubmissionParser
+
+__all__ = ["read_submission", "read_submission_pending"]
+
+
+def read_submission(path: str | Path) -> Submission:
+    """Read and check a predictions file; ``.parquet`` by suffix, anything else JSON Lines.
+
+    Raises :class:`SubmissionError` listing every problem (with its line) if the file is
+    not a valid predictions file.
+    """
+    sub, problems = read_submission_pending(path)
+    problems.raise_if_any()
+    return sub
+
+
+def read_submission_pending(path: str | Path) -> tuple[Submission, Problems]:
+    """Read a predictions file, returning the problems found instead of raising them.
+
+    The table leaves out the lines with problems. A caller that checks more (against the
+    split's data) adds its problems to the same list and raises once, so a user sees every
+    problem of the file in one message. A file without a valid header raises at once.
+    """
+    p = Path(path)
+    if not p.is_file():
+        what = "is a directory" if p.is_dir() else "does not exist"
+        msg = f"predictions file {str(p)!r} {what}; pass the path of a .jsonl or .parquet file"
+        raise SubmissionError(msg)
+    # Parsed JSON holds millions of small lists and no reference cycles: pausing the cyclic
+    # garbage collector while they are built saves it rescanning them over and over.
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        parser = _read_parquet(p) if p.suffix == ".parquet" else _read_jsonl(p)
+        return parser.finish(check=False), parser.problems
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _read_jsonl(path: Path) -> SubmissionParser:
+    parser = SubmissionParser(str(path))
+    header_done = False
+    with path.open("rb") as fh:
+        for lineno, raw in enumerate(fh, 1):
+            if not raw.strip():
+                continue
+            try:
+                text = raw.decode("utf-8").rstrip("\r\n")
+            except UnicodeDecodeError as exc:
+                parser.problem(
+                    lineno,
+                    f"is not UTF-8 text (byte {exc.start + 1}); write the file as UTF-8 JSON",
+                )
+                header_done = True
+                continue
+            try:
+                obj: Any = json.loads(text)
+            except json.JSONDecodeError as exc:
+                parser.problem(
+                    lineno,
+                    f"is not valid JSON ({exc.msg} at column {exc.colno}); each line must be "
+                    "one complete JSON object",
+                )
+                header_done = True
+                continue
+            except RecursionError:
+                parser.problem(lineno, "nests too deeply to be a prediction; check the line")
+                header_done = True
+                continue
+            if not header_done:
+                parser.parse_header(lineno, obj)
+                header_done = True
+                continue
+            # Booleans are numbers to numpy: scan lines that could hold one in Python.
+            parser.parse_record(lineno, obj, deep=b"true" in raw or b"false" in raw)
+    return parser
+
+
+def _read_parquet(path: Path) -> SubmissionParser:
+    from nsrmp_bench._optional import require
+
+    try:
+        pq = require("pyarrow.parquet")
+    except MissingExtra as exc:
+        msg = f"{path}: reading Parquet predictions needs pyarrow ({exc}); or write JSON Lines"
+        raise SubmissionError(msg) from exc
+    try:
+        table = pq.read_table(path)
+    except Exception as exc:  # pyarrow raises several unrelated types for a bad file
+        msg = f"{path}: not a readable Parquet file ({exc}); write it with pyarrow or use .jsonl"
+        raise SubmissionError(msg) from exc
+    parser = SubmissionParser(str(path), line_label="row")
+    meta = table.schema.metadata or {}
+    raw_header = meta.get(PARQUET_HEADER_KEY.encode())
+    if raw_header is None:
+        msg = (
+            f"{path}: the Parquet schema metadata has no {PARQUET_HEADER_KEY!r} key; store the "
+            "header object's JSON text there (see nsrmp_bench.scoring.submission.write_submission)"
+        )
+        raise SubmissionError(msg)
+    try:
+        header = json.loads(raw_header)
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        msg = f"{path}: its {PARQUET_HEADER_KEY!r} metadata is not JSON ({exc}); store the header"
+        raise SubmissionError(msg) from exc
+    parser.parse_header(None, {"header": header})
+    unknown = [c for c in table.column_names if c not in PARQUET_COLUMNS]
+    if unknown:
+        msg = (
+            f"{path}: unknown columns {unknown}; a predictions table has only "
+            f"{list(PARQUET_COLUMNS)}"
+        )
+        raise SubmissionError(msg)
+    for row, record in enumerate(table.to_pylist(), 1):
+        rec = {k: v for k, v in record.items() if v is not None}
+        program = rec.get("program")
+        if isinstance(program, list):
+            rec["program"] = [
+                [s.get("action"), s.get("subject"), s.get("reference")]
+                if isinstance(s, dict)
+                else s
+                for s in program
+            ]
+        parser.parse_record(row, rec, deep=False)
+    return parser

@@ -1,0 +1,214 @@
+"""The outcome of scoring: tables of figures with intervals, counts, warnings, and views.
+
+A :class:`ScoreResult` holds pandas DataFrames (summary, per step, per category, per
+instance), writes itself as JSON, and prints itself as rich tables.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, cast
+
+import pandas as pd
+
+from nsrmp_bench.errors import UnknownId
+
+__all__ = ["BREAKDOWN_SHOWN", "ScoreResult", "json_ready"]
+
+BREAKDOWN_SHOWN = ("iou_m", "iou", "success", "program_exact")
+"""The metrics the printed breakdown shows (the JSON and DataFrames hold all of them)."""
+
+
+def json_ready(value: Any) -> Any:
+    """``value`` with NaN and infinities as None and numpy scalars as Python ones."""
+    if isinstance(value, dict):
+        return {str(k): json_ready(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_ready(v) for v in value]
+    if hasattr(value, "item") and not isinstance(value, str):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _num(value: Any) -> float:
+    return float(value)
+
+
+def _fmt(value: float, digits: int = 3) -> str:
+    return "—" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
+
+
+def _ci(low: float, high: float) -> str:
+    if not (math.isfinite(low) and math.isfinite(high)):
+        return ""
+    return f"[{low:.3f}, {high:.3f}]"
+
+
+@dataclass(frozen=True, eq=False)
+class ScoreResult:
+    """Every figure of one scored predictions file.
+
+    ``summary`` (index: metric) has ``label, value, ci_low, ci_high, n, paper,
+    description``; ``per_step`` (index: step) the per-step IoU-M; ``per_category`` is long
+    (``category, group, metric, value, ci_low, ci_high, n``); ``per_instance`` (index: id)
+    holds each instance's values, ``present``, and its categories.
+    """
+
+    scorer: str
+    split: str | None
+    source: str
+    model: str | None
+    summary: pd.DataFrame
+    per_step: pd.DataFrame
+    per_category: pd.DataFrame
+    per_instance: pd.DataFrame
+    counts: dict[str, int]
+    warnings: tuple[str, ...]
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def headline(self) -> float:
+        """IoU-M, the headline figure."""
+        return self.value("iou_m")
+
+    def value(self, metric: str) -> float:
+        """One metric's value (NaN when not reported, e.g. success_3d without positions)."""
+        if metric not in self.summary.index:
+            msg = f"no metric {metric!r}; reported: {list(self.summary.index)}"
+            raise UnknownId(msg)
+        return _num(self.summary.at[metric, "value"])
+
+    def interval(self, metric: str) -> tuple[float, float]:
+        """A metric's bootstrap interval (low, high)."""
+        self.value(metric)
+        return _num(self.summary.at[metric, "ci_low"]), _num(self.summary.at[metric, "ci_high"])
+
+    def breakdown(self, metric: str = "iou_m") -> pd.DataFrame:
+        """One metric by category: index (category, group); value, ci_low, ci_high, n."""
+        self.value(metric)
+        rows = self.per_category[self.per_category["metric"] == metric]
+        return rows.set_index(["category", "group"])[["value", "ci_low", "ci_high", "n"]]
+
+    def paper_table(self) -> pd.DataFrame:
+        """The paper's Table I layout: IoU and IoU-M overall, by steps and simple/complex."""
+        cat = self.per_category
+        rows: dict[str, dict[str, float]] = {
+            "overall": {"IoU": self.value("iou"), "IoU-M": self.value("iou_m"),
+                        "n": _num(self.summary.at["iou", "n"])},
+        }
+        for name, category, group in (
+            ("single-step", "steps", "1"),
+            ("double-step", "steps", "2"),
+            ("simple", "relational", "False"),
+            ("complex", "relational", "True"),
+        ):
+            sel = cat[(cat["category"] == category) & (cat["group"] == group)]
+            if len(sel):
+                by = sel.set_index("metric")
+                rows[name] = {"IoU": _num(by.at["iou", "value"]),
+                              "IoU-M": _num(by.at["iou_m", "value"]),
+                              "n": _num(by.at["iou", "n"])}
+        return pd.DataFrame.from_dict(rows, orient="index")
+
+    # -- output ---------------------------------------------------------------------------
+    def to_dict(self, *, per_instance: bool = False) -> dict[str, Any]:
+        """JSON-able form (NaN as null); per-instance rows only when asked."""
+        out: dict[str, Any] = {
+            "scorer": self.scorer,
+            "split": self.split,
+            "submission": self.source,
+            "model": self.model,
+            "settings": self.settings,
+            "summary": {
+                str(m): {k: row[k] for k in ("label", "value", "ci_low", "ci_high", "n",
+                                             "paper", "description")}
+                for m, row in self.summary.iterrows()
+            },
+            "per_step": self.per_step.reset_index().to_dict(orient="records"),
+            "per_category": self.per_category.to_dict(orient="records"),
+            "counts": self.counts,
+            "warnings": list(self.warnings),
+        }
+        if per_instance:
+            out["per_instance"] = self.per_instance.reset_index().to_dict(orient="records")
+        result: dict[str, Any] = json_ready(out)
+        return result
+
+    def write_json(self, path: str | Path, *, per_instance: bool = False) -> Path:
+        """Write :meth:`to_dict` as strict JSON."""
+        p = Path(path)
+        p.write_text(
+            json.dumps(self.to_dict(per_instance=per_instance), indent=2, allow_nan=False) + "\n",
+            encoding="utf-8",
+        )
+        return p
+
+    def render(self, console: Any = None) -> None:
+        """Print the figures as rich tables."""
+        from rich.console import Console
+        from rich.table import Table
+
+        con = console if console is not None else Console()
+        n = self.counts.get("instances", 0)
+        missing = self.counts.get("missing", 0)
+        level = self.settings.get("level", 0.95)
+        title = (
+            f"{self.scorer} · split {self.split or '?'} · {n} instances"
+            f" ({missing} missing) · {self.model or Path(self.source).name}"
+        )
+        t = Table(title=title, title_justify="left")
+        t.add_column("metric")
+        t.add_column("value", justify="right")
+        t.add_column(f"{level:.0%} CI", justify="right")
+        t.add_column("n", justify="right")
+        t.add_column("paper", style="dim")
+        for _, row in self.summary.iterrows():
+            value = row["value"]
+            shown = _fmt(value) if row["n"] else "not submitted"
+            t.add_row(str(row["label"]), shown, _ci(row["ci_low"], row["ci_high"]),
+                      str(int(row["n"])), str(row["paper"]))
+        con.print(t)
+        if len(self.per_step):
+            s = Table(title="IoU-M after each step", title_justify="left")
+            s.add_column("step", justify="right")
+            s.add_column("IoU-M", justify="right")
+            s.add_column(f"{level:.0%} CI", justify="right")
+            s.add_column("n", justify="right")
+            for step, row in self.per_step.iterrows():
+                s.add_row(str(step), _fmt(row["value"]), _ci(row["ci_low"], row["ci_high"]),
+                          str(int(row["n"])))
+            con.print(s)
+        if len(self.per_category):
+            b = Table(title="Breakdown", title_justify="left")
+            b.add_column("category")
+            b.add_column("group", no_wrap=True, max_width=14, overflow="ellipsis")
+            b.add_column("n", justify="right", min_width=3)
+            b.add_column("IoU-M", justify="right", min_width=5)
+            b.add_column(f"{level:.0%} CI", justify="right")
+            for m in BREAKDOWN_SHOWN[1:]:
+                b.add_column(str(self.summary.at[m, "label"]), justify="right", min_width=5)
+            wide = self.per_category.pivot_table(
+                index=["category", "group"], columns="metric",
+                values=["value", "ci_low", "ci_high", "n"], aggfunc="first", sort=False,
+            )
+            previous = None
+            for key, row in wide.iterrows():
+                category, group = cast(tuple[str, str], key)
+                shown_cat = "" if category == previous else str(category)
+                previous = category
+                b.add_row(
+                    shown_cat, str(group), str(int(row[("n", "iou")])),
+                    _fmt(row[("value", "iou_m")]),
+                    _ci(row[("ci_low", "iou_m")], row[("ci_high", "iou_m")]),
+                    *(_fmt(row[("value", m)]) for m in BREAKDOWN_SHOWN[1:]),
+                )
+            con.print(b)
+        nonzero = {k: v for k, v in self.counts.items() if v}
+        con.print("counts: " + ", ".join(f"{k}={v}" for k, v in nonzero.items()))
+        for w in self.warnings:
+            con.print(f"[yellow]warning:[/yellow] {w}")

@@ -1,0 +1,268 @@
+"""The predictions file: its header, one prediction per instance, and the parsed table.
+
+A predictions file is JSON Lines (or Parquet with the same columns). Its first line is the
+header, every further line one instance::
+
+    {"header": {"format": "nsrmp-bench-predictions", "format_version": "1.0.0",
+                "split": "smoke-v1", "scorer": "scorer-v1", "model": "my-model"}}
+    {"id": "smoke-v1/000000", "boxes": [[x1, y1, x2, y2], ...],
+     "program": [["top", 2, 0]], "pick": [u, v], "place": [u, v],
+     "step_boxes": [[[x1, y1, x2, y2], ...]], "positions": [[x, y, z], ...]}
+
+``boxes`` (required) are the predicted final amodal boxes, pixel xyxy, one per object in
+the episode's object order. Optional: ``step_boxes`` (the boxes after each step, one list
+per step), ``program`` (the predicted grounded program: ``[action, subject, reference]``
+per step, object indices in episode order), ``pick`` / ``place`` (pixel locations, for the
+identification and placement accuracies) and ``positions`` (predicted final object centres
+in metres, world frame). ``null`` means absent. In Parquet the header is the JSON text of
+the schema metadata key ``nsrmp_bench.header``. ``submission.schema.json`` documents one
+line; :mod:`nsrmp_bench.scoring.validate` enforces it with messages that name the line.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nsrmp_bench.dsl.program import GroundedStep
+from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.scoring.version import SCORER_ID, SUBMISSION_FORMAT, SUBMISSION_FORMAT_VERSION
+
+__all__ = [
+    "PARQUET_COLUMNS",
+    "PARQUET_HEADER_KEY",
+    "Prediction",
+    "Submission",
+    "SubmissionHeader",
+    "load_schema",
+    "write_submission",
+]
+
+F64 = NDArray[np.float64]
+I64 = NDArray[np.int64]
+B = NDArray[np.bool_]
+
+PARQUET_HEADER_KEY = "nsrmp_bench.header"
+"""The Parquet schema-metadata key holding the header's JSON text."""
+
+_BOX_DECIMALS = 6  # pixels: below float32 precision of the gold boxes
+_POS_DECIMALS = 6  # metres: micrometres
+
+
+def load_schema() -> dict[str, Any]:
+    """The JSON Schema of one predictions line (package data ``submission.schema.json``)."""
+    text = (
+        resources.files("nsrmp_bench.scoring")
+        .joinpath("submission.schema.json")
+        .read_text("utf-8")
+    )
+    schema: dict[str, Any] = json.loads(text)
+    return schema
+
+
+@dataclass(frozen=True)
+class SubmissionHeader:
+    """The first line of a predictions file: what it is for and who made it."""
+
+    split: str
+    scorer: str = SCORER_ID
+    model: str | None = None
+    format: str = SUBMISSION_FORMAT
+    format_version: str = SUBMISSION_FORMAT_VERSION
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The header object (the value of the first line's ``header`` key)."""
+        out: dict[str, Any] = {
+            "format": self.format,
+            "format_version": self.format_version,
+            "split": self.split,
+            "scorer": self.scorer,
+        }
+        if self.model is not None:
+            out["model"] = self.model
+        out.update(self.extra)
+        return out
+
+
+def _round_list(values: Any, decimals: int, where: str) -> Any:
+    try:
+        arr = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        msg = f"{where} must hold numbers, got {values!r:.60}"
+        raise InvalidArgument(msg) from exc
+    if not np.isfinite(arr).all():
+        msg = f"{where} holds NaN or infinity; predictions must be finite numbers"
+        raise InvalidArgument(msg)
+    return np.round(arr, decimals).tolist()
+
+
+@dataclass(frozen=True, eq=False)
+class Prediction:
+    """One instance's prediction, as a model or baseline writes it."""
+
+    id: str
+    boxes: NDArray[Any]  # (N, 4) pixel xyxy
+    program: tuple[GroundedStep, ...] | None = None
+    step_boxes: NDArray[Any] | None = None  # (S, N, 4)
+    pick: tuple[float, float] | None = None
+    place: tuple[float, float] | None = None
+    positions: NDArray[Any] | None = None  # (N, 3) metres
+
+    def to_record(self) -> dict[str, Any]:
+        """The JSON-able line (pixels and metres rounded to 6 decimals).
+
+        Raises :class:`InvalidArgument` naming the instance and field for a value that is
+        not a finite number (the file could not be written as strict JSON).
+        """
+        w = f"prediction {self.id!r}:"
+        rec: dict[str, Any] = {
+            "id": self.id, "boxes": _round_list(self.boxes, _BOX_DECIMALS, f"{w} boxes")
+        }
+        if self.program is not None:
+            rec["program"] = [s.to_list() for s in self.program]
+        for name, value, decimals in (
+            ("step_boxes", self.step_boxes, _BOX_DECIMALS),
+            ("pick", self.pick, _BOX_DECIMALS),
+            ("place", self.place, _BOX_DECIMALS),
+            ("positions", self.positions, _POS_DECIMALS),
+        ):
+            if value is not None:
+                rec[name] = _round_list(value, decimals, f"{w} {name}")
+        return rec
+
+
+@dataclass(frozen=True, eq=False)
+class Submission:
+    """A parsed, format-checked predictions file: one row per record, flat arrays.
+
+    Made by :func:`nsrmp_bench.scoring.reader.read_submission` (or
+    :meth:`from_predictions`); not yet matched to a split's instances.
+    """
+
+    header: SubmissionHeader
+    source: str
+    ids: tuple[str, ...]
+    lines: I64  # (R,) line (JSON Lines) or row (Parquet) number, 1-based
+    obj_offsets: I64  # (R+1,)
+    boxes: F64  # (O, 4)
+    has_step_boxes: B  # (R,)
+    n_step_states: I64  # (R,) number of per-step box lists (0 where absent)
+    stepbox_offsets: I64  # (R+1,) over n_step_states * N
+    step_boxes: F64  # (Q, 4)
+    has_program: B  # (R,)
+    program_offsets: I64  # (R+1,)
+    actions: NDArray[np.int8]  # (U,) index into ACTIONS
+    subjects: I64  # (U,)
+    references: I64  # (U,)
+    pick: F64  # (R, 2), NaN where absent
+    place: F64  # (R, 2), NaN where absent
+    has_positions: B  # (R,)
+    positions: F64  # (O, 3), NaN where absent
+    line_label: str = "line"
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    @property
+    def n_objects(self) -> I64:
+        """Boxes per record."""
+        out: I64 = np.diff(self.obj_offsets)
+        return out
+
+    def where(self, record: int) -> str:
+        """``"line 12"`` (or ``"row 12"``) for record index ``record``."""
+        return f"{self.line_label} {int(self.lines[record])}"
+
+    @classmethod
+    def from_predictions(
+        cls, header: SubmissionHeader, predictions: Iterable[Prediction], source: str = "<memory>"
+    ) -> Submission:
+        """Check and parse in-memory predictions exactly as a file would be."""
+        from nsrmp_bench.scoring.validate import parse_submission
+
+        records = [p.to_record() for p in predictions]
+        return parse_submission(
+            {"header": header.to_dict()}, iter(records), source=source, first_line=2,
+            deep_type_check=True,
+        )
+
+
+def _atomic_write(path: Path, write: Any) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        write(tmp)
+        with tmp.open("rb") as fh:
+            os.fsync(fh.fileno())
+        tmp.replace(path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def write_submission(
+    path: str | Path, header: SubmissionHeader, predictions: Iterable[Prediction]
+) -> Path:
+    """Write a predictions file (``.parquet`` by suffix, else JSON Lines), atomically."""
+    out = Path(path)
+    if out.suffix == ".parquet":
+        from nsrmp_bench._optional import require
+
+        pa = require("pyarrow")
+        pq = require("pyarrow.parquet")
+        table = _parquet_table(pa, header, [p.to_record() for p in predictions])
+        _atomic_write(out, lambda tmp: pq.write_table(table, tmp))
+        return out
+    if out.suffix not in (".jsonl", ".json", ".ndjson"):
+        msg = f"predictions file {str(out)!r}: use a .jsonl (JSON Lines) or .parquet suffix"
+        raise InvalidArgument(msg)
+
+    def write_jsonl(tmp: Path) -> None:
+        with tmp.open("w", encoding="utf-8") as fh:
+            fh.write(json.dumps({"header": header.to_dict()}, allow_nan=False) + "\n")
+            for p in predictions:
+                fh.write(json.dumps(p.to_record(), allow_nan=False, separators=(",", ":")))
+                fh.write("\n")
+
+    _atomic_write(out, write_jsonl)
+    return out
+
+
+PARQUET_COLUMNS = ("id", "boxes", "program", "step_boxes", "pick", "place", "positions")
+"""The columns of a Parquet predictions file (one row per instance)."""
+
+
+def _parquet_table(pa: Any, header: SubmissionHeader, records: list[dict[str, Any]]) -> Any:
+    """An Arrow table of the records; a program is a list of (action, subject, reference)."""
+    rows = []
+    for r in records:
+        row = {c: r.get(c) for c in PARQUET_COLUMNS}
+        if row["program"] is not None:
+            row["program"] = [
+                {"action": a, "subject": s, "reference": f} for a, s, f in row["program"]
+            ]
+        rows.append(row)
+    step = pa.struct(
+        [("action", pa.string()), ("subject", pa.int64()), ("reference", pa.int64())]
+    )
+    schema = pa.schema(
+        [
+            ("id", pa.string()),
+            ("boxes", pa.list_(pa.list_(pa.float64()))),
+            ("program", pa.list_(step)),
+            ("step_boxes", pa.list_(pa.list_(pa.list_(pa.float64())))),
+            ("pick", pa.list_(pa.float64())),
+            ("place", pa.list_(pa.float64())),
+            ("positions", pa.list_(pa.list_(pa.float64()))),
+        ],
+        metadata={PARQUET_HEADER_KEY: json.dumps(header.to_dict())},
+    )
+    return pa.Table.from_pylist(rows, schema=schema)
