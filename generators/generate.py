@@ -14,18 +14,15 @@ import importlib.metadata
 import multiprocessing as mp
 import os
 import queue as queue_module
-from collections import Counter
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from nsrmp_bench import __version__
 from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.episode import Episode, SeedInfo
-from nsrmp_bench.errors import GenerationError
-from nsrmp_bench.generators.sampler import sample_symbolic
+from nsrmp_bench.generators.sampler import AttemptLog, first_valid, sample_symbolic
 from nsrmp_bench.split_specs import SplitSpec, load_split
 from nsrmp_bench.storage.manifest import Manifest
 from nsrmp_bench.storage.records import ShardRecord
@@ -38,8 +35,8 @@ __all__ = [
     "generate_part",
     "generate_split",
     "make_episode",
-    "realise_config",
     "physics_fingerprint",
+    "realise_config",
     "versions",
 ]
 
@@ -47,24 +44,8 @@ DEFAULT_SHARD_SIZE = 100
 MAX_ATTEMPTS = 64
 
 
-@dataclass
-class GenerationStats:
-    """Counts of what generation rejected, by reason."""
-
-    episodes: int = 0
-    attempts: int = 0
-    rejections: Counter[str] = field(default_factory=Counter)
-
-    def merge(self, other: GenerationStats) -> None:
-        """Add another worker's counts."""
-        self.episodes += other.episodes
-        self.attempts += other.attempts
-        self.rejections.update(other.rejections)
-
-
-def _reason(exc: GenerationError) -> str:
-    code = getattr(exc, "reason", None)
-    return f"physics:{code}" if code else "symbolic"
+GenerationStats = AttemptLog
+"""Counts of generated episodes, attempts, and rejections by reason."""
 
 
 def realise_config(
@@ -75,37 +56,23 @@ def realise_config(
     world: Any,
     *,
     executor: str = "teleport",
-    stats: GenerationStats | None = None,
+    stats: AttemptLog | None = None,
 ) -> Episode:
     """The first attempt of instance ``index`` that samples and realises without rejection."""
     from nsrmp_bench.generators.world.realise import realise
 
-    last: GenerationError | None = None
-    for attempt in range(MAX_ATTEMPTS):
-        if stats is not None:
-            stats.attempts += 1
-        seed = SeedInfo(entropy, index, attempt)
-        try:
-            symbolic = sample_symbolic(config, seed, episode_id)
-            rendering = realise(symbolic.scene, symbolic.states, symbolic.grounded, world,
-                                executor=executor)
-        except GenerationError as exc:
-            last = exc
-            if stats is not None:
-                stats.rejections[_reason(exc)] += 1
-            continue
-        if stats is not None:
-            stats.episodes += 1
+    def attempt(seed: SeedInfo) -> Episode:
+        symbolic = sample_symbolic(config, seed, episode_id)
+        rendering = realise(symbolic.scene, symbolic.states, symbolic.grounded, world,
+                            executor=executor)
         return Episode(symbolic, rendering)
-    msg = (
-        f"{episode_id}: no valid instance in {MAX_ATTEMPTS} attempts; last rejection: {last}. "
-        "The config asks for something the world cannot realise; relax it"
-    )
-    raise GenerationError(msg)
+
+    return first_valid(entropy, index, attempt, max_attempts=MAX_ATTEMPTS, log=stats,
+                       what=f" for {episode_id}")
 
 
 def make_episode(
-    spec: SplitSpec, part: str, index: int, world: Any, stats: GenerationStats | None = None
+    spec: SplitSpec, part: str, index: int, world: Any, stats: AttemptLog | None = None
 ) -> Episode:
     """Instance ``index`` of ``spec``'s ``part``, realised in ``world`` (a World)."""
     return realise_config(

@@ -9,8 +9,9 @@ moves on to attempt ``a + 1``, up to a bounded number of attempts.
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.episode import SeedInfo, SymbolicEpisode
@@ -20,9 +21,13 @@ from nsrmp_bench.generators.program_sampler import sample_program
 from nsrmp_bench.generators.scene_sampler import sample_scene
 from nsrmp_bench.generators.templates import load_language
 
-__all__ = ["GENERATOR_ID", "AttemptLog", "EpisodeConfig", "sample_episode", "sample_symbolic"]
+__all__ = [
+    "GENERATOR_ID", "AttemptLog", "EpisodeConfig", "first_valid", "sample_episode",
+    "sample_symbolic",
+]
 
 GENERATOR_ID = "symbolic-v1"
+T = TypeVar("T")
 
 
 def _referenced_pairs(sample: Any, objects: Any) -> set[tuple[str, str]]:
@@ -64,10 +69,54 @@ def sample_symbolic(config: EpisodeConfig, seed: SeedInfo, episode_id: str) -> S
 
 @dataclass
 class AttemptLog:
-    """Why the attempts before the accepted one were rejected."""
+    """How many attempts were made, and why the rejected ones were rejected."""
 
     reasons: Counter[str] = field(default_factory=Counter)
     attempts: int = 0
+    episodes: int = 0
+
+    def merge(self, other: AttemptLog) -> None:
+        """Add another log's counts (e.g. a worker's)."""
+        self.reasons.update(other.reasons)
+        self.attempts += other.attempts
+        self.episodes += other.episodes
+
+
+def _reason(exc: GenerationError) -> str:
+    code = getattr(exc, "reason", None)  # physics rejections carry a reason code
+    return f"physics:{code}" if code else "symbolic"
+
+
+def first_valid(
+    entropy: int,
+    index: int,
+    attempt_fn: Callable[[SeedInfo], T],
+    *,
+    max_attempts: int = 64,
+    log: AttemptLog | None = None,
+    what: str = "",
+) -> T:
+    """``attempt_fn(SeedInfo(entropy, index, a))`` for the first ``a`` that raises no
+    GenerationError; GenerationError naming the last problem past ``max_attempts``."""
+    last: GenerationError | None = None
+    for attempt in range(max_attempts):
+        if log is not None:
+            log.attempts += 1
+        try:
+            result = attempt_fn(SeedInfo(entropy, index, attempt))
+        except GenerationError as exc:
+            last = exc
+            if log is not None:
+                log.reasons[_reason(exc)] += 1
+            continue
+        if log is not None:
+            log.episodes += 1
+        return result
+    msg = (
+        f"instance {index}: no valid episode in {max_attempts} attempts{what}; "
+        f"last problem: {last}. Relax the config (fewer steps or objects, relational='any')"
+    )
+    raise GenerationError(msg)
 
 
 def sample_episode(
@@ -79,19 +128,8 @@ def sample_episode(
     max_attempts: int = 64,
     log: AttemptLog | None = None,
 ) -> SymbolicEpisode:
-    """The first valid attempt for instance ``index``; GenerationError past ``max_attempts``."""
-    last: Exception | None = None
-    for attempt in range(max_attempts):
-        if log is not None:
-            log.attempts += 1
-        try:
-            return sample_symbolic(config, SeedInfo(entropy, index, attempt), episode_id)
-        except GenerationError as exc:
-            last = exc
-            if log is not None:
-                log.reasons[type(exc).__name__ + ": " + str(exc).split(";")[0][:60]] += 1
-    msg = (
-        f"instance {index}: no valid episode in {max_attempts} attempts for {config}; "
-        f"last problem: {last}. Relax the config (fewer steps or objects, relational='any')"
+    """The first valid symbolic attempt for instance ``index``."""
+    return first_valid(
+        entropy, index, lambda seed: sample_symbolic(config, seed, episode_id),
+        max_attempts=max_attempts, log=log, what=f" for {config}",
     )
-    raise GenerationError(msg)

@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
             )
         wall = time.perf_counter() - t0
         rate = stats.episodes / wall if stats.episodes else 0.0
-        rejected = sum(stats.rejections.values())
+        rejected = sum(stats.reasons.values())
         console.print(
             f"{spec.id}/{part}: {manifest.count} episodes in {out} "
             f"({stats.episodes} generated in {wall:.1f} s, {rate:.1f} ep/s; "
@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _reasons(stats: Any) -> str:
-    if not stats.rejections:
+    if not stats.reasons:
         return ""
-    parts = ", ".join(f"{k} {v}" for k, v in stats.rejections.most_common())
+    parts = ", ".join(f"{k} {v}" for k, v in stats.reasons.most_common())
     return f": {parts}"
