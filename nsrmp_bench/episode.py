@@ -229,7 +229,7 @@ class ObjectTargets:
     poses: NDArray[np.float64]  # (S+1, N, 7): position xyz + quaternion xyzw
     boxes_amodal: F32  # (S+1, N, 4) pixel xyxy, projection of the object's 3D box
     boxes_visible: F32  # (S+1, N, 4) pixel xyxy from the mask; NaN where unseen
-    visible_fraction: F32  # (S+1, N) visible pixels / pixels of the object rendered alone
+    visible_fraction: F32  # (S+1, N) visible pixels / area of the projected outline of its 3D box
     depth_centre: F32  # (S+1, N) depth of the 3D box centre, metres
 
 

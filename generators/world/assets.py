@@ -1,0 +1,307 @@
+"""Procedural assets of the world, made by our code: no asset file is copied.
+
+* **cube**: a 5 cm box in one of the 7 colours.
+* **dice**: a 5 cm box mesh whose six faces carry 1..6 pips (opposite faces sum to 7),
+  textured from a pip atlas drawn with numpy/cv2 (one texture per colour, written to the
+  asset cache).
+* **lego**: a 2x2 brick, a box body plus four cylindrical studs, whose bounding box is
+  exactly ``EXTENTS["lego"]``; collision is the same compound (box + cylinders).
+
+Every body's frame is the centre of its bounding box, so a symbolic pose (box centre) is
+the body pose. The table and the Franka Panda come from ``pybullet_data``; the "lean"
+Panda is a variant URDF, generated at runtime from pybullet_data's own text, whose
+visuals are its collision meshes (3.5k instead of 103k triangles; see
+``shared/reference/perf-limits.md`` §2.2).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Final
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nsrmp_bench._optional import require
+from nsrmp_bench.vocabulary import COLOUR_RGBA, COLOURS, EXTENTS
+
+__all__ = [
+    "ASSET_VERSION",
+    "DICE_FACE_PIPS",
+    "LEGO_STUD_HEIGHT",
+    "LEGO_STUD_PITCH",
+    "LEGO_STUD_RADIUS",
+    "OBJECT_DYNAMICS",
+    "ShapeIds",
+    "asset_cache_dir",
+    "create_shape_ids",
+    "dice_mesh",
+    "dice_texture",
+    "ensure_dice_textures",
+    "lean_panda_urdf",
+    "lego_parts",
+    "silhouette_points",
+    "write_atomically",
+]
+
+ASSET_VERSION: Final = "world-assets-v1"
+"""Version of the procedural assets; part of the cache folder name."""
+
+OBJECT_DYNAMICS: Final[dict[str, float]] = {
+    "mass": 0.1,
+    "lateralFriction": 1.0,
+    "spinningFriction": 0.001,
+    "rollingFriction": 0.0,
+    "restitution": 0.0,
+    "linearDamping": 0.04,
+    "angularDamping": 0.04,
+}
+"""Dynamics of every object (kg, friction coefficients); the original used 0.1 kg, 1.0."""
+
+# Faces in (normal axis, sign) order +x, -x, +y, -y, +z, -z; opposite faces sum to 7.
+DICE_FACE_PIPS: Final[tuple[int, ...]] = (2, 5, 3, 4, 1, 6)
+
+LEGO_STUD_RADIUS: Final = 0.0096
+LEGO_STUD_HEIGHT: Final = 0.008
+LEGO_STUD_PITCH: Final = 0.032
+"""Stud centres lie at (+-pitch/2, +-pitch/2) on the top of the body."""
+
+_DICE_FACE_PX: Final = 64
+_LIGHT_COLOURS: Final = frozenset({"white", "yellow", "cyan"})
+
+
+def asset_cache_dir(root: str | os.PathLike[str] | None = None) -> Path:
+    """The folder that holds generated asset files, created if missing.
+
+    ``root`` overrides the default ``$NSRMP_BENCH_CACHE`` or ``$XDG_CACHE_HOME/nsrmp-bench``
+    (``~/.cache/nsrmp-bench``). Files are named by their content's hash and written
+    atomically, so processes may share the folder.
+    """
+    if root is None:
+        env = os.environ.get("NSRMP_BENCH_CACHE")
+        if env:
+            base = Path(env)
+        else:
+            xdg = os.environ.get("XDG_CACHE_HOME")
+            base = (Path(xdg) if xdg else Path.home() / ".cache") / "nsrmp-bench"
+    else:
+        base = Path(root)
+    out = base / ASSET_VERSION
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def write_atomically(path: Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` unless it already exists (temp file + rename)."""
+    if path.exists():
+        return path
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+# -- dice ------------------------------------------------------------------------------
+_PIP_LAYOUT: Final[dict[int, tuple[tuple[float, float], ...]]] = {
+    1: ((0.5, 0.5),),
+    2: ((0.27, 0.27), (0.73, 0.73)),
+    3: ((0.27, 0.27), (0.5, 0.5), (0.73, 0.73)),
+    4: ((0.27, 0.27), (0.73, 0.27), (0.27, 0.73), (0.73, 0.73)),
+    5: ((0.27, 0.27), (0.73, 0.27), (0.5, 0.5), (0.27, 0.73), (0.73, 0.73)),
+    6: ((0.27, 0.25), (0.73, 0.25), (0.27, 0.5), (0.73, 0.5), (0.27, 0.75), (0.73, 0.75)),
+}
+
+
+def dice_texture(colour: str, face_px: int = _DICE_FACE_PX) -> NDArray[np.uint8]:
+    """The RGB pip atlas ``(face_px, 6 * face_px, 3)`` of a dice: one square per face.
+
+    Cell ``k`` (left to right) is face ``k`` of :data:`DICE_FACE_PIPS`. Light colours get
+    black pips, the others white pips.
+    """
+    cv2 = require("cv2")
+    body = np.array([round(255 * c) for c in COLOUR_RGBA[colour][:3]], dtype=np.uint8)
+    pip = (20, 20, 20) if colour in _LIGHT_COLOURS else (250, 250, 250)
+    img = np.empty((face_px, 6 * face_px, 3), dtype=np.uint8)
+    img[:] = body
+    shift = 4
+    scale = 1 << shift
+    radius = round(0.095 * face_px * scale)
+    for k, pips in enumerate(DICE_FACE_PIPS):
+        for u, v in _PIP_LAYOUT[pips]:
+            centre = (round((k + u) * face_px * scale), round(v * face_px * scale))
+            cv2.circle(img, centre, radius, pip, -1, cv2.LINE_AA, shift)
+    out: NDArray[np.uint8] = img
+    return out
+
+
+def ensure_dice_textures(directory: Path) -> dict[str, Path]:
+    """Write the 7 dice textures (PNG) into ``directory`` if missing; colour -> path."""
+    cv2 = require("cv2")
+    paths: dict[str, Path] = {}
+    for colour in COLOURS:
+        rgb = dice_texture(colour)
+        ok, buf = cv2.imencode(".png", np.ascontiguousarray(rgb[:, :, ::-1]))
+        if not ok:  # pragma: no cover - cv2 always encodes uint8 PNGs
+            msg = f"could not encode the {colour} dice texture as PNG"
+            raise RuntimeError(msg)
+        data = bytes(buf)
+        digest = hashlib.sha256(data).hexdigest()[:16]
+        paths[colour] = write_atomically(directory / f"dice_{colour}_{digest}.png", data)
+    return paths
+
+
+def dice_mesh(size: float) -> dict[str, list[Any]]:
+    """Vertices, indices, uvs and normals of a cube of edge ``size`` with an atlas UV map.
+
+    Face ``k`` (order of :data:`DICE_FACE_PIPS`) maps to atlas cell ``k`` of a one-row
+    atlas, so the map does not depend on whether the renderer flips ``v``.
+    """
+    h = size / 2.0
+    eps = 0.5 / (6 * _DICE_FACE_PX)  # half a texel inset against bleeding between cells
+    vertices: list[list[float]] = []
+    uvs: list[list[float]] = []
+    normals: list[list[float]] = []
+    indices: list[int] = []
+    for k, (axis, sign) in enumerate(((0, 1), (0, -1), (1, 1), (1, -1), (2, 1), (2, -1))):
+        n = [0.0, 0.0, 0.0]
+        n[axis] = float(sign)
+        # two tangent axes with t1 x t2 = n (counter-clockwise seen from outside)
+        t1 = [0.0, 0.0, 0.0]
+        t2 = [0.0, 0.0, 0.0]
+        a1, a2 = (axis + 1) % 3, (axis + 2) % 3
+        t1[a1] = 1.0
+        t2[a2] = float(sign)
+        base = len(vertices)
+        for s1, s2 in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+            vertices.append([h * (n[i] + s1 * t1[i] + s2 * t2[i]) for i in range(3)])
+            u = (k + (0.5 + 0.5 * s1)) / 6.0
+            u = min(max(u, k / 6.0 + eps), (k + 1) / 6.0 - eps)
+            v = min(max(0.5 + 0.5 * s2, eps * 6), 1.0 - eps * 6)
+            uvs.append([u, v])
+            normals.append(list(n))
+        indices += [base, base + 1, base + 2, base, base + 2, base + 3]
+    return {"vertices": vertices, "indices": indices, "uvs": uvs, "normals": normals}
+
+
+# -- lego ------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Part:
+    kind: str  # "box" | "cylinder"
+    half_extents: tuple[float, float, float]  # box: half sizes; cylinder: (r, r, h/2)
+    position: tuple[float, float, float]
+
+
+def lego_parts() -> tuple[_Part, ...]:
+    """The brick's convex parts in its box-centred frame: the body, then the four studs."""
+    ex, ey, ez = EXTENTS["lego"]
+    body_h = ez - LEGO_STUD_HEIGHT
+    z_body = -ez / 2.0 + body_h / 2.0
+    z_stud = ez / 2.0 - LEGO_STUD_HEIGHT / 2.0
+    q = LEGO_STUD_PITCH / 2.0
+    parts = [_Part("box", (ex / 2.0, ey / 2.0, body_h / 2.0), (0.0, 0.0, z_body))]
+    r = LEGO_STUD_RADIUS
+    for sx, sy in ((-1, -1), (1, -1), (-1, 1), (1, 1)):
+        parts.append(_Part("cylinder", (r, r, LEGO_STUD_HEIGHT / 2.0), (sx * q, sy * q, z_stud)))
+    return tuple(parts)
+
+
+def silhouette_points(shape: str, circle_points: int = 16) -> NDArray[np.float64]:
+    """Points in the object frame whose projected convex hull is the object's silhouette.
+
+    Exact for cube and dice (the 8 corners); for the lego, the body's corners and points on
+    the studs' top and bottom circles (the hull slightly overestimates the true outline,
+    which has notches between studs).
+    """
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)],
+                     dtype=np.float64)
+    if shape != "lego":
+        return signs * (np.asarray(EXTENTS[shape], dtype=np.float64) / 2.0)
+    pts: list[NDArray[np.float64]] = []
+    for part in lego_parts():
+        c = np.asarray(part.position, dtype=np.float64)
+        if part.kind == "box":
+            pts.append(signs * np.asarray(part.half_extents) + c)
+        else:
+            a = np.linspace(0.0, 2.0 * np.pi, circle_points, endpoint=False)
+            r, _, hz = part.half_extents
+            ring = np.stack([r * np.cos(a), r * np.sin(a), np.zeros_like(a)], axis=1)
+            pts.append(ring + c + [0.0, 0.0, hz])
+            pts.append(ring + c - [0.0, 0.0, hz])
+    return np.concatenate(pts, axis=0)
+
+
+# -- PyBullet shapes -------------------------------------------------------------------
+@dataclass(frozen=True)
+class ShapeIds:
+    """Collision and visual shape ids of one shape in one client (created once, reused)."""
+
+    collision: int
+    visual: int
+
+
+def create_shape_ids(pb: Any, client: int, shape: str) -> ShapeIds:
+    """Create the collision and visual shapes of ``shape`` (colour is set per body)."""
+    white = [1.0, 1.0, 1.0, 1.0]
+    if shape == "cube":
+        half = [e / 2.0 for e in EXTENTS["cube"]]
+        col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=client)
+        vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=white,
+                                   physicsClientId=client)
+    elif shape == "dice":
+        half = [e / 2.0 for e in EXTENTS["dice"]]
+        col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=client)
+        mesh = dice_mesh(EXTENTS["dice"][0])
+        vis = pb.createVisualShape(pb.GEOM_MESH, rgbaColor=white, physicsClientId=client,
+                                   **mesh)
+    elif shape == "lego":
+        parts = lego_parts()
+        kinds = [pb.GEOM_BOX if p.kind == "box" else pb.GEOM_CYLINDER for p in parts]
+        half_extents = [list(p.half_extents) if p.kind == "box" else [0.0, 0.0, 0.0]
+                        for p in parts]
+        radii = [p.half_extents[0] if p.kind == "cylinder" else 0.0 for p in parts]
+        lengths = [2.0 * p.half_extents[2] if p.kind == "cylinder" else 0.0 for p in parts]
+        positions = [list(p.position) for p in parts]
+        col = pb.createCollisionShapeArray(
+            shapeTypes=kinds, halfExtents=half_extents, radii=radii, lengths=lengths,
+            collisionFramePositions=positions, physicsClientId=client)
+        vis = pb.createVisualShapeArray(
+            shapeTypes=kinds, halfExtents=half_extents, radii=radii, lengths=lengths,
+            visualFramePositions=positions, rgbaColors=[white] * len(parts),
+            physicsClientId=client)
+    else:
+        msg = f"unknown shape {shape!r}; expected one of cube, dice, lego"
+        raise ValueError(msg)
+    if col < 0 or vis < 0:
+        msg = f"PyBullet could not create the {shape} shapes (collision {col}, visual {vis})"
+        raise RuntimeError(msg)
+    return ShapeIds(int(col), int(vis))
+
+
+# -- the lean Panda --------------------------------------------------------------------
+def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str]) -> Path:
+    """A Panda URDF whose visuals are its collision meshes, written into ``directory``.
+
+    It is pybullet_data's ``franka_panda/panda.urdf`` with every ``package://meshes/...``
+    reference made absolute and ``visual/`` meshes replaced by ``collision/`` ones: the
+    kinematics, inertias and collision geometry are unchanged.
+    """
+    src = Path(data_path) / "franka_panda" / "panda.urdf"
+    if not src.is_file():
+        msg = f"pybullet_data has no Franka Panda at {src}; reinstall pybullet"
+        raise FileNotFoundError(msg)
+    text = src.read_text("utf-8")
+    mesh_dir = (Path(data_path) / "franka_panda" / "meshes" / "collision").resolve()
+    text = text.replace("package://meshes/visual/", f"{mesh_dir}/")
+    text = text.replace("package://meshes/collision/", f"{mesh_dir}/")
+    data = text.encode("utf-8")
+    digest = hashlib.sha256(data).hexdigest()[:16]
+    return write_atomically(directory / f"panda_lean_{digest}.urdf", data)

@@ -1,0 +1,84 @@
+"""``nsrmp-bench show PATH --png SHEET.png [--episode ID]``.
+
+Draws the contact sheet of one stored episode (the instruction, the initial scene, the
+scene after each step with every object's box and index, and the grounded step under
+each panel) and writes it as a PNG. ``PATH`` is anything :func:`nsrmp_bench.storage.open`
+reads: a shard file or a data directory. Needs the ``sim`` extra (OpenCV).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+from pathlib import Path
+from typing import Any
+
+from nsrmp_bench._optional import require
+from nsrmp_bench.errors import InvalidArgument, MissingExtra
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of the verb."""
+    parser.add_argument("path", help="a shard file (*.h5) or a data directory")
+    parser.add_argument("--png", required=True, metavar="SHEET.png",
+                        help="where to write the contact sheet")
+    parser.add_argument("--episode", metavar="ID",
+                        help="episode id, or its position in PATH (default: the first)")
+    parser.add_argument("--scale", type=int, default=2,
+                        help="image enlargement factor for legible labels (default 2)")
+    parser.add_argument("--columns", type=int, default=3, help="panels per row (default 3)")
+
+
+def _open(path: str) -> Any:
+    try:
+        storage = importlib.import_module("nsrmp_bench.storage")
+    except ImportError as exc:  # pragma: no cover - storage is part of the core
+        msg = f"the storage package cannot be imported ({exc}); reinstall nsrmp-bench"
+        raise MissingExtra(msg) from exc
+    opener = getattr(storage, "open", None)
+    if opener is None:  # pragma: no cover - only before the storage API existed
+        msg = ("nsrmp_bench.storage has no open(path) yet, so stored episodes cannot be "
+               "read; update nsrmp-bench")
+        raise InvalidArgument(msg)
+    return opener(path)
+
+
+def _pick(collection: Any, episode: str | None) -> Any:
+    if episode is None:
+        if len(collection) == 0:
+            msg = "PATH holds no episodes; pass a shard or data directory with episodes"
+            raise InvalidArgument(msg)
+        return collection[0]
+    if episode.lstrip("-").isdigit():
+        index = int(episode)
+        if not -len(collection) <= index < len(collection):
+            msg = (f"--episode {index} is out of range: PATH holds {len(collection)} "
+                   "episodes; pass a position in that range or an episode id")
+            raise InvalidArgument(msg)
+        return collection[index]
+    return collection.get(episode)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Write the contact sheet and print where it went."""
+    cv2 = require("cv2")
+    sheets: Any = importlib.import_module("nsrmp_bench.generators.world.contact_sheet")
+
+    out = Path(args.png)
+    if out.suffix.lower() != ".png":
+        msg = f"--png must name a .png file, got {str(out)!r}; e.g. --png sheet.png"
+        raise InvalidArgument(msg)
+    collection = _open(args.path)
+    try:
+        episode = _pick(collection, args.episode)
+    finally:
+        close = getattr(collection, "close", None)
+        if close is not None:
+            close()
+    image = sheets.contact_sheet(episode, scale=args.scale, columns=args.columns)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if not cv2.imwrite(str(out), image[:, :, ::-1]):
+        msg = f"could not write {out}; check that the folder is writable"
+        raise InvalidArgument(msg)
+    print(f"wrote {out}: episode {episode.id}, {image.shape[1]}x{image.shape[0]} px")
+    return 0

@@ -1,0 +1,19 @@
+"""One PyBullet world shared by the world tests (building one loads URDFs: ~0.2 s)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+pytest.importorskip("pybullet")
+pytest.importorskip("cv2")
+
+
+@pytest.fixture(scope="session")
+def world() -> Iterator[Any]:
+    from nsrmp_bench.generators.world.world import World
+
+    with World() as w:
+        yield w
