@@ -21,7 +21,7 @@ def test_every_shipped_spec_loads_and_ids_match() -> None:
 
 def test_official_set_is_shipped() -> None:
     shipped = set(list_splits())
-    missing = [s for s in OFFICIAL_SPLITS if s not in shipped and s != "robot-v1"]
+    missing = [s for s in OFFICIAL_SPLITS if s not in shipped]
     assert not missing
 
 
