@@ -15,6 +15,7 @@ from pathlib import Path
 
 from rich.console import Console
 
+from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.verify import verify
 
 __all__ = ["add_arguments", "run"]
@@ -29,7 +30,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _part_dirs(path: Path) -> list[Path]:
-    if (path / "manifest.json").is_file() or not path.is_dir():
+    if not path.is_dir():
+        msg = (
+            f"{path} is not a data directory; give a part directory (with manifest.json) "
+            "or a split directory holding parts, as written by `nsrmp-bench generate`"
+        )
+        raise InvalidArgument(msg)
+    if (path / "manifest.json").is_file():
         return [path]
     parts = sorted(p for p in path.iterdir() if (p / "manifest.json").is_file())
     return parts or [path]
