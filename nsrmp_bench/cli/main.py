@@ -19,6 +19,19 @@ __all__ = ["VERBS", "main"]
 
 VERBS: dict[str, str] = {
     "sample": "generate and print one symbolic episode as JSON",
+    "show": "draw the contact sheet of a stored episode as a PNG",
+    "generate": "generate (or resume) a split into HDF5 shards, deterministically",
+    "verify": "recompute hashes and compare data with its manifest and the committed one",
+    "info": "counts per category of a data directory or a split spec",
+    "audit": "prove splits share no seed, scene or instance, and held-out material stays out",
+    "pack": "write release files and the registry that download reads",
+    "download": "fetch a split's shards from a mirror, verified against the registry",
+    "export-mcap": "export stored episodes to MCAP (Foxglove schemas) for viewing",
+    "import-nsrm": "convert the original NSRM release layout into nsrmp-bench shards",
+    "score": "score a predictions file against a split's data",
+    "compare": "paired comparison of two predictions files on the same split",
+    "check-submission": "validate a predictions file without scoring it",
+    "baseline": "write a non-learned baseline's predictions (oracle, noop, random)",
 }
 """Verb name -> one-line help. The module is ``nsrmp_bench.cli.<verb with _>``."""
 
