@@ -81,6 +81,11 @@ def _panel(cv2: Any, episode: Episode, k: int, scale: int) -> NDArray[np.uint8]:
         light = sum(colour) > 450
         cv2.putText(img, label, (lx + 2, ly + th + 1), cv2.FONT_HERSHEY_SIMPLEX, _FONT_SCALE,
                     _INK if light else _PAPER, 1, cv2.LINE_AA)
+    trajectory = episode.rendering.trajectory
+    if trajectory is not None and k > 0:  # the end-effector path of the step that led here
+        from nsrmp_bench.generators.world.robot_path import draw_ee_path
+
+        img = draw_ee_path(img, episode.rendering.camera, trajectory, step=k - 1, scale=scale)
     steps = episode.symbolic.num_steps
     title = "initial scene" if k == 0 else f"after step {k}" + (" (final)" if k == steps else "")
     caption = "" if k == 0 else step_caption(episode, k)

@@ -260,11 +260,19 @@ def realise(
     ``render=False`` skips the images (targets then hold NaN boxes) for physics-only runs.
     ``composite`` renders the objects over a cached image of the empty scene (3x faster;
     see :meth:`World.render`); ``composite=False`` renders every image in full.
-    ``executor`` must be ``"teleport"`` (the only executor this function implements).
+    ``executor`` is ``"teleport"`` (place and settle) or ``"robot"`` (the Panda carries out
+    every step by pick-and-place, same checks and renders, trajectory recorded; see
+    :func:`~.robot_realise.realise_with_robot`).
     """
+    if executor == "robot":
+        from nsrmp_bench.generators.world.robot_realise import realise_with_robot
+
+        return realise_with_robot(scene, states, grounded, world, min_visible=min_visible,
+                                  camera=camera, tolerances=tolerances, render=render,
+                                  composite=composite)
     if executor != EXECUTOR:
-        msg = (f"realise supports the executor {EXECUTOR!r} (teleport and settle); got "
-               f"{executor!r}. Robot execution is a separate executor; use executor={EXECUTOR!r}")
+        msg = (f"unknown executor {executor!r}; expected {EXECUTOR!r} (teleport and settle) "
+               "or 'robot' (Panda pick-and-place)")
         raise InvalidArgument(msg)
     tol = Tolerances() if tolerances is None else tolerances
     cam = world.camera if camera is None else camera

@@ -90,7 +90,7 @@ def _run_one(task: ReplayTask, profile: str, source: str,
     except NSRMPError as exc:  # nothing to carry out: the robot leaves the scene as it is
         error = str(exc)
         result = replay_episode(world, ep, task.placement, profile, source=source,
-                                plan=ReplayPlan(source, (), (error,)))
+                                plan=ReplayPlan(source, (), ()))
     pred = achieved_prediction(result, ep, task.placement)
     if render_dir is not None:  # initial | achieved, side by side
         camera = episode_camera(ep)

@@ -51,6 +51,7 @@ from nsrmp_bench.generators.world.robot_grasp import (
     choose_grasp_yaw,
     grasp_height,
     obstacles,
+    release_lift,
     travel_height,
     wrap_angle,
 )
@@ -116,7 +117,8 @@ class StepResult:
     ``symbolic_error_m``: distance to the symbolic target (``nan`` when none was given).
     ``disturbed_m``: largest displacement of any other object. ``problem`` names the first
     failed condition (``grasp_failed``, ``off_target``, ``tilted``, ``unstable``,
-    ``disturbed``) or is None on success.
+    ``disturbed``) or is None on success. ``release_drop_m``: how far above its resting
+    height the object was let go (0 unless neighbours left the open fingers no room).
     """
 
     subject: int
@@ -134,6 +136,7 @@ class StepResult:
     physics_steps: int
     sim_time: float
     trajectory: Trajectory
+    release_drop_m: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able summary (without the trajectory)."""
@@ -152,6 +155,7 @@ class StepResult:
             "problem": self.problem,
             "physics_steps": self.physics_steps,
             "sim_time": self.sim_time,
+            "release_drop_m": self.release_drop_m,
         }
 
 
@@ -223,8 +227,9 @@ def _pick_and_place(
     rest: Sequence[float],
     rest_fingers: float,
     go_to_rest: bool,
-) -> tuple[bool, GraspPlan]:
-    """Run the phases of one step; returns whether the object stayed in the hand."""
+) -> tuple[bool, GraspPlan, float]:
+    """Run the phases of one step; returns whether the object stayed in the hand, the
+    grasp plan and how far above its resting height the object was let go."""
     world = ctl.world
     state = _current_state(world)
     obj = objects[subject]
@@ -263,22 +268,24 @@ def _pick_and_place(
     c0, s0 = math.cos(plan.pick_yaw), math.sin(plan.pick_yaw)
     local = np.array([c0 * offset[0] + s0 * offset[1], -s0 * offset[0] + c0 * offset[1]])
     rel_yaw = wrap_angle(held.yaw - plan.pick_yaw)
-    place_yaw = target.yaw - rel_yaw
-    k = round((plan.place_yaw - place_yaw) / (math.pi / 2.0))
-    place_yaw += k * math.pi / 2.0
+    place_yaw = target.yaw - rel_yaw  # the object ends at the target's yaw exactly
+    place_yaw += round((plan.place_yaw - place_yaw) / (2.0 * math.pi)) * 2.0 * math.pi
     c1, s1 = math.cos(place_yaw), math.sin(place_yaw)
     tx, ty, tz = target.position
     ex = tx - (c1 * local[0] - s1 * local[1])
     ey = ty - (s1 * local[0] + c1 * local[1])
     bottom_rest = tz - obj.extents[2] / 2.0
     ez = bottom_rest + RELEASE_GAP + (ee_pos[2] - (held.position[2] - obj.extents[2] / 2.0))
-    above_place = (ex, ey, z_travel)
+    # No room for the open fingers beside the target: open higher and let the object drop.
+    drop = release_lift((ex, ey), place_yaw, ez, plan.opening, others)
+    ez += drop
+    above_place = (ex, ey, max(z_travel, ez + _MIN_LIFT))
     place_at = (ex, ey, ez)
 
     if not grasped:  # nothing in the hand: open, and back to rest
         ctl.gripper_wait(plan.opening, ctl.profile.open_time, above_pick, plan.pick_yaw)
         ctl.move_joints(rest, gripper=rest_fingers)
-        return False, plan
+        return False, plan, 0.0
 
     # 6. carry and lower, 7. release and retreat
     ctl.move_line(above_pick, above_place, plan.pick_yaw, place_yaw)
@@ -288,7 +295,7 @@ def _pick_and_place(
     ctl.move_line(place_at, retreat, place_yaw, place_yaw, hold=0.0)
     if go_to_rest:
         ctl.move_joints(rest, gripper=rest_fingers)
-    return grasped, plan
+    return grasped, plan, drop
 
 
 def _joint_state(world: World, joints: Sequence[int]) -> list[float]:
@@ -337,8 +344,8 @@ def execute_step(
         ctl = ArmController(world, prof, recorder, joints, dt)
         rest = list(PANDA_REST)
         rest_fingers = float(np.mean(_joint_state(world, joints.fingers)))
-        grasped, plan = _pick_and_place(ctl, objects, subject_index, target, rest,
-                                        rest_fingers, go_to_rest)
+        grasped, plan, drop = _pick_and_place(ctl, objects, subject_index, target, rest,
+                                              rest_fingers, go_to_rest)
         moving_steps = ctl.steps
         moving_time = recorder.time - t0
     settle = world.settle(max_steps=_SETTLE_STEPS)
@@ -379,6 +386,7 @@ def execute_step(
         physics_steps=moving_steps + settle.steps,
         sim_time=moving_time + settle_time,
         trajectory=recorder.trajectory(),
+        release_drop_m=drop,
     )
 
 

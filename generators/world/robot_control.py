@@ -12,6 +12,7 @@ so that position control follows the line to a fraction of a millimetre.
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -47,7 +48,7 @@ _GEAR_MAX_FORCE: Final = 50.0
 _FINGER_FRICTION: Final = 1.5
 _POSITION_GAIN: Final = 0.1
 _VELOCITY_GAIN: Final = 1.0
-_WORLD_RESIDUAL: Final = 0.0  # the World runs every solver iteration (see world.py)
+_WORLD_RESIDUAL: Final = 0.0  # World() sets this (every solver iteration runs)
 READY: Final = (0.42, 0.36, -0.38, -2.38, 0.31, 2.70, -1.01)
 """Arm joints with the hand pointing down above the workspace: a fallback IK seed."""
 
@@ -74,19 +75,18 @@ class PandaJoints:
     names: tuple[str, ...]
 
 
-_JOINTS_CACHE: dict[tuple[int, int], PandaJoints] = {}
+_JOINTS_CACHE: weakref.WeakKeyDictionary[World, PandaJoints] = weakref.WeakKeyDictionary()
 
 
 def panda_joints(world: World) -> PandaJoints:
-    """The World's Panda joints (looked up once per client and body)."""
+    """The World's Panda joints (looked up once per World)."""
     if world.panda is None:
         msg = (
             "this World has no Panda (WorldConfig.panda='none'); robot execution needs one: "
             "build the World with WorldConfig(panda='lean') or 'stock'"
         )
         raise InvalidArgument(msg)
-    key = (world.client, world.panda)
-    cached = _JOINTS_CACHE.get(key)
+    cached = _JOINTS_CACHE.get(world)
     if cached is not None:
         return cached
     pb, c, body = world.pb, world.client, world.panda
@@ -113,20 +113,20 @@ def panda_joints(world: World) -> PandaJoints:
     for j in (*arm, *fingers):
         names.append(pb.getJointInfo(body, j, physicsClientId=c)[1].decode())
     out = PandaJoints(tuple(arm), tuple(fingers), ee, tuple(names))
-    _JOINTS_CACHE[key] = out
+    _JOINTS_CACHE[world] = out
     return out
 
 
-_KIN_CACHE: dict[tuple[int, int], PandaKinematics] = {}
+_KIN_CACHE: weakref.WeakKeyDictionary[World, PandaKinematics] = weakref.WeakKeyDictionary()
 
 
 def arm_kinematics(world: World, joints: PandaJoints) -> PandaKinematics:
-    """The numpy kinematics of the World's Panda (built once per client and body)."""
-    key = (world.client, int(world.panda or 0))
-    kin = _KIN_CACHE.get(key)
+    """The numpy kinematics of the World's Panda (built once per World)."""
+    kin = _KIN_CACHE.get(world)
     if kin is None:
-        kin = PandaKinematics(world.pb, world.client, key[1], joints.arm, joints.ee)
-        _KIN_CACHE[key] = kin
+        kin = PandaKinematics(world.pb, world.client, int(world.panda or 0), joints.arm,
+                              joints.ee)
+        _KIN_CACHE[world] = kin
     return kin
 
 
@@ -294,8 +294,8 @@ def robot_session(world: World, profile: MotionProfile) -> Iterator[tuple[PandaJ
         yield joints, dt
     finally:
         if residual is not None:
-            pb.setPhysicsEngineParameter(solverResidualThreshold=_WORLD_RESIDUAL,
-                                         physicsClientId=c)
+            restore = float(getattr(world.config, "solver_residual_threshold", _WORLD_RESIDUAL))
+            pb.setPhysicsEngineParameter(solverResidualThreshold=restore, physicsClientId=c)
         if dt != world_dt:
             pb.setPhysicsEngineParameter(fixedTimeStep=world_dt, physicsClientId=c)
         for f, mu in friction.items():

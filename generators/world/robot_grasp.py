@@ -4,8 +4,8 @@ the hand so that neither the fingers nor the hand touch a neighbour, how high to
 Pure geometry on object footprints (numpy only). The gripper points straight down; at
 gripper yaw ``theta`` (the hand's orientation is Euler ``(pi, 0, theta)``) the fingers
 close along ``(sin theta, -cos theta)``. An object with yaw ``psi`` is held across two
-opposite faces, so ``theta = psi (mod pi/2)``; of the candidate yaws the planner takes the
-one with the most room around the fingers and hand at both the pick and the place spot.
+opposite faces, so ``theta = psi (mod pi/2)``; of the two ways to hold it the planner takes
+the one with room around the fingers and hand at the pick and the place spot.
 
 The gripper's dimensions below were measured from pybullet_data's Panda collision
 meshes (link AABBs in the grasp-target frame).
@@ -38,6 +38,7 @@ __all__ = [
     "gripper_parts",
     "neutral_yaw",
     "obstacles",
+    "release_lift",
     "travel_height",
     "wrap_angle",
 ]
@@ -57,7 +58,11 @@ _HAND_HALF: Final = (0.0356, 0.108)  # (across, along) the closing axis
 _HAND_BOTTOM: Final = 0.035  # above the grasp target
 _HAND_TOP: Final = 0.135
 _OPEN_MARGIN: Final = 0.008  # free room between pad and object face when open (per side)
+_TIGHT_MARGIN: Final = 0.004  # the same where neighbours leave no room for the first
 _GRIP_FRACTION: Final = 0.5  # hold the body at this fraction of its height
+_MIN_ROOM: Final = 0.002  # m between the open gripper and a neighbour when releasing
+_DROP_STEP: Final = 0.005  # m
+_MAX_DROP: Final = 0.05  # m
 _NEUTRAL_OFFSET: Final = 0.7  # rad: gripper yaw minus base direction at mid-range joint 7
 
 
@@ -78,10 +83,12 @@ def grasp_height(obj: SceneObject, pose: Pose) -> float:
     return bottom + _GRIP_FRACTION * body_height(obj)
 
 
-def finger_opening(obj: SceneObject) -> float:
-    """Opening of one finger (m) that clears ``obj``'s faces by a margin, capped at the max."""
+def finger_opening(obj: SceneObject, tight: bool = False) -> float:
+    """Opening of one finger (m) that clears ``obj``'s faces by a margin (a smaller one if
+    ``tight``: for crowded spots), capped at the max."""
     half = max(obj.extents[0], obj.extents[1]) / 2.0
-    return min(MAX_FINGER_OPENING, half + _FINGER_INNER_OFFSET + _OPEN_MARGIN)
+    margin = _TIGHT_MARGIN if tight else _OPEN_MARGIN
+    return min(MAX_FINGER_OPENING, half + _FINGER_INNER_OFFSET + margin)
 
 
 @dataclass(frozen=True)
@@ -151,16 +158,20 @@ def gripper_parts(centre: Vec, theta: float, z_grasp: float,
     return parts
 
 
-def _separated(a: F64, b: F64) -> bool:
-    """Whether convex polygons ``a`` and ``b`` are separated (separating axis test)."""
+def _overlap(a: F64, b: F64) -> float:
+    """Smallest overlap of convex polygons ``a`` and ``b`` over the separating-axis
+    candidates (their edge normals); <= 0 when some axis separates them."""
+    least = math.inf
     for poly in (a, b):
         edges = np.roll(poly, -1, axis=0) - poly
         normals = np.stack([-edges[:, 1], edges[:, 0]], axis=1)
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
         pa = a @ normals.T
         pb = b @ normals.T
-        if np.any((pa.max(axis=0) < pb.min(axis=0)) | (pb.max(axis=0) < pa.min(axis=0))):
-            return True
-    return False
+        overlap = np.minimum(pa.max(axis=0), pb.max(axis=0)) - np.maximum(pa.min(axis=0),
+                                                                            pb.min(axis=0))
+        least = min(least, float(overlap.min()))
+    return least
 
 
 def _point_segment(p: F64, a: F64, b: F64) -> F64:
@@ -174,9 +185,10 @@ def _point_segment(p: F64, a: F64, b: F64) -> F64:
 
 
 def _polygon_distance(a: F64, b: F64) -> float:
-    """Distance between convex polygons; 0 when they overlap."""
-    if not _separated(a, b):
-        return 0.0
+    """Signed distance between convex polygons: the gap, or minus the depth they overlap."""
+    depth = _overlap(a, b)
+    if depth > 0.0:
+        return -depth
     ea, eb = np.roll(a, -1, axis=0), np.roll(b, -1, axis=0)
     return float(min(_point_segment(a, b, eb).min(), _point_segment(b, a, ea).min()))
 
@@ -184,7 +196,8 @@ def _polygon_distance(a: F64, b: F64) -> float:
 def clearance(parts: Sequence[tuple[F64, float, float]], obs: Sequence[Obstacle],
               z_margin: float = 0.003) -> float:
     """Smallest horizontal gap between a gripper part and an obstacle at an overlapping
-    height (``inf`` when nothing is at the parts' heights)."""
+    height, negative when they overlap (by that depth); ``inf`` when nothing is at the
+    parts' heights."""
     best = math.inf
     for poly, zlo, zhi in parts:
         for o in obs:
@@ -204,21 +217,16 @@ def neutral_yaw(x: float, y: float, base: Vec) -> float:
 
 @dataclass(frozen=True)
 class GraspPlan:
-    """Gripper yaws at pick and place, the finger opening, the room left at both ends and
-    the quarter turns the object makes beyond its target yaw (0 unless that was the only
-    way to find room; every footprint here is square, so its box does not change)."""
+    """Gripper yaws at pick and place, the finger opening and the room left at both ends."""
 
     pick_yaw: float
     place_yaw: float
     opening: float
     clearance_pick: float
     clearance_place: float
-    quarter_turns: int = 0
 
 
-_SAFE_ROOM: Final = 0.01  # m of room that is enough: prefer the exact yaw among these
-_ENOUGH_ROOM: Final = 0.05  # m beyond which more room does not matter
-_MAX_DEVIATION: Final = 2.2  # rad from the neutral yaw (the last joint's range is +-2.97)
+_SAFE_ROOM: Final = 0.01  # m of room that is enough; beyond it, prefer the neutral yaw
 
 
 def _nearest_mod(angle: float, period: float, near: float) -> float:
@@ -236,38 +244,51 @@ def choose_grasp_yaw(
     base: Vec,
     place_grasp_z: float,
 ) -> GraspPlan:
-    """The grasp with enough room at both ends, preferring the exact target yaw, then more
-    room, then yaws near the neutral one.
+    """Of the two ways to hold the object (across either pair of faces), the one with room
+    for the fingers and hand at the pick, then at the place, then nearer the neutral yaw.
 
-    The hand holds the object across one of two face pairs (two closing axes); the object
-    turns with the hand, so the place yaw is the pick yaw plus the object's yaw change,
-    plus a number of quarter turns when only a turned object leaves the fingers room.
+    Room at the pick comes first because nothing else can make it; at the place the hand
+    can instead open higher (:func:`release_lift`). The object turns with the hand by
+    exactly its yaw change, so it keeps its target orientation.
     """
-    opening = finger_opening(obj)
-    turn = _nearest_mod(wrap_angle(place.yaw - pick.yaw), math.pi / 2.0, 0.0)
+    turn = wrap_angle(place.yaw - pick.yaw)
     z_pick = grasp_height(obj, pick)
     n_pick = neutral_yaw(pick.position[0], pick.position[1], base)
     n_place = neutral_yaw(place.position[0], place.position[1], base)
-    best: tuple[tuple[float, bool, float, float], GraspPlan] | None = None
-    for k in range(2):  # the two closing axes at the pick
+    best: tuple[tuple[float, float, bool, float], GraspPlan] | None = None
+    for k, tight in ((0, False), (1, False), (0, True), (1, True)):  # two closing axes
+        opening = finger_opening(obj, tight)
         theta = _nearest_mod(pick.yaw + k * math.pi / 2.0, math.pi, n_pick)
+        # theta and theta + pi close along the same axis: keep the one nearer both neutrals
+        theta = min((theta, theta + math.pi, theta - math.pi),
+                    key=lambda t: abs(wrap_angle(t - n_pick)) + abs(wrap_angle(t + turn - n_place)))
+        theta = n_pick + wrap_angle(theta - n_pick)
+        place_theta = theta + turn
         c_pick = clearance(gripper_parts(pick.position[:2], theta, z_pick, opening),
                            others_at_pick)
-        for m in (0, 1, -1, 2, -2):
-            place_theta = theta + turn + m * math.pi / 2.0
-            deviation = abs(place_theta - n_place)
-            if deviation > _MAX_DEVIATION and m != 0:
-                continue
-            c_place = clearance(gripper_parts(place.position[:2], place_theta, place_grasp_z,
-                                              opening), others_at_place)
-            room = min(c_pick, c_place)
-            key = (min(room, _SAFE_ROOM), m == 0, min(room, _ENOUGH_ROOM),
-                   -(abs(theta - n_pick) + deviation))
-            plan = GraspPlan(theta, place_theta, opening, c_pick, c_place, m)
-            if best is None or key > best[0]:
-                best = (key, plan)
+        c_place = clearance(gripper_parts(place.position[:2], place_theta, place_grasp_z,
+                                          opening), others_at_place)
+        deviation = abs(theta - n_pick) + abs(place_theta - n_place)
+        key = (min(c_pick, _SAFE_ROOM), min(c_place, _SAFE_ROOM), not tight, -deviation)
+        if best is None or key > best[0]:
+            best = (key, GraspPlan(theta, place_theta, opening, c_pick, c_place))
     assert best is not None
     return best[1]
+
+
+def release_lift(place: Vec, place_yaw: float, z_grasp: float, opening: float,
+                 others: Sequence[Obstacle], room: float = _MIN_ROOM,
+                 most: float = _MAX_DROP) -> float:
+    """How much higher (m) than the resting height the hand must open so that no part of
+    the gripper touches a neighbour: 0 when there is room; the object then drops that far.
+    ``most`` bounds it (when even that is not enough, the hand opens at ``most``)."""
+    lift = 0.0
+    while lift < most:
+        if clearance(gripper_parts(place[:2], place_yaw, z_grasp + lift, opening),
+                     others) >= room:
+            return lift
+        lift = round(lift + _DROP_STEP, 6)
+    return most
 
 
 def travel_height(

@@ -102,6 +102,7 @@ class WorldConfig:
     floor: bool = False
     time_step: float = 1.0 / 240.0
     solver_iterations: int = 50
+    solver_residual_threshold: float = 0.0
     settle_solver_iterations: int = 30
     pool_per_shape: int = 15
     background: tuple[int, int, int] = (206, 214, 222)
@@ -118,7 +119,7 @@ class WorldConfig:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able form (stored with every rendering)."""
-        return {
+        out: dict[str, Any] = {
             "panda": self.panda,
             "floor": self.floor,
             "time_step": self.time_step,
@@ -129,6 +130,10 @@ class WorldConfig:
             "light_direction": list(self.light_direction),
             "shadow": self.shadow,
         }
+        if self.solver_residual_threshold != 0.0:  # recorded only when changed, so
+            # data generated before the field existed keeps its hashes
+            out["solver_residual_threshold"] = self.solver_residual_threshold
+        return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -192,7 +197,7 @@ class World:
             numSolverIterations=self.config.solver_iterations,
             numSubSteps=0,
             deterministicOverlappingPairs=1,
-            solverResidualThreshold=0.0,
+            solverResidualThreshold=self.config.solver_residual_threshold,
             physicsClientId=c,
         )
         self.plane: int | None = None
