@@ -51,6 +51,7 @@ __all__ = [
     "PhysicsRejection",
     "Tolerances",
     "realise",
+    "tilt_deg",
 ]
 
 EXECUTOR: Final = "teleport"
@@ -126,8 +127,8 @@ def _label(scene: Scene, i: int) -> str:
     return f"object {i} ({scene.objects[i].label})"
 
 
-def _tilt_deg(quat: NDArray[np.float64]) -> NDArray[np.float64]:
-    # angle between the body z axis and world z: cos = 1 - 2(x^2 + y^2)
+def tilt_deg(quat: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Angle in degrees between each body's z axis and world z, for unit xyzw quaternions."""
     x, y = quat[..., 0], quat[..., 1]
     c = np.clip(1.0 - 2.0 * (x * x + y * y), -1.0, 1.0)
     return np.degrees(np.arccos(c))
@@ -183,7 +184,7 @@ def _check_settled(
                    f"than the {tol.placed * 1000:.0f} mm allowed; resample the instance")
             raise PhysicsRejection(msg, reason="fell", step=step, object_index=i,
                                    value=float(d[i]), threshold=tol.placed)
-    tilt = _tilt_deg(settled[:, 3:7])
+    tilt = tilt_deg(settled[:, 3:7])
     if (tilt > tol.tilt_deg).any():
         i = int(np.argmax(tilt))
         msg = (f"state {step}: {_label(scene, i)} toppled: it is tilted by {tilt[i]:.1f} deg, "

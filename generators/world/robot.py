@@ -41,6 +41,7 @@ from nsrmp_bench.dsl.actions import target_pose
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.episode import Trajectory
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.generators.world.realise import tilt_deg
 from nsrmp_bench.generators.world.robot_control import (
     ArmController,
     panda_joints,
@@ -202,14 +203,6 @@ def poses_to_state(poses: NDArray[Any]) -> State:
     )
 
 
-def _tilt_deg(orientation: Sequence[float]) -> float:
-    """Angle between the object's z axis and the world's, in degrees."""
-    x, y, _, _ = orientation
-    n2 = sum(v * v for v in orientation)
-    cos_tilt = 1.0 - 2.0 * (x * x + y * y) / max(n2, 1e-18)
-    return math.degrees(math.acos(max(-1.0, min(1.0, cos_tilt))))
-
-
 def robot_joint_names(world: World) -> tuple[str, ...]:
     """Names of the recorded joints (7 arm joints, then 2 finger joints)."""
     return panda_joints(world).names
@@ -354,7 +347,7 @@ def execute_step(
     err = math.dist(achieved.position, target.position)
     sym_err = (math.nan if symbolic_target is None
                else math.dist(achieved.position, symbolic_target.position))
-    tilt = _tilt_deg(achieved.orientation)
+    tilt = float(tilt_deg(np.asarray(achieved.orientation, dtype=np.float64)))
     moved = np.linalg.norm(after[:, :3] - before[:, :3], axis=1)
     moved[subject_index] = 0.0
     disturbed = float(moved.max()) if n > 1 else 0.0
