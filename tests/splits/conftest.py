@@ -14,5 +14,5 @@ def smoke_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from nsrmp_bench.generators.generate import generate_split
 
     out = tmp_path_factory.mktemp("smoke")
-    generate_split("smoke-v1", out, workers=2, shard_size=8)
+    generate_split("smoke-v1", out, workers=2)  # the official shard size
     return out

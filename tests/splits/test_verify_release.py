@@ -117,3 +117,21 @@ def test_audit_fails_on_shared_instances(smoke_dir: Path) -> None:
     assert not report.ok
     assert report.shared["scenes"] == 1
     assert any("triples" in f for f in report.failures)
+
+
+def test_official_download_uses_the_committed_manifest(
+    smoke_dir: Path, tmp_path: Path, server: tuple[str, Path, list[str]]
+) -> None:
+    from nsrmp_bench.official_manifests import official_manifest
+
+    if official_manifest("smoke-v1", "test") is None:
+        pytest.skip("no committed manifest for smoke-v1")
+    url, root, requests = server
+    pack(smoke_dir, root)
+    (root / "smoke-v1" / "registry.txt").write_text("not a registry\n")  # never read
+    out = tmp_path / "official"
+    download("smoke-v1", out, base_url=url)
+    assert not any(r.endswith("registry.txt") for r in requests)
+    report = verify(out / "test")
+    assert report.ok, report.problems
+    assert report.committed_root_hash == report.root_hash
