@@ -32,6 +32,7 @@ VERBS: dict[str, str] = {
     "compare": "paired comparison of two predictions files on the same split",
     "check-submission": "validate a predictions file without scoring it",
     "baseline": "write a non-learned baseline's predictions (oracle, noop, random)",
+    "leaderboard": "rebuild the static leaderboards by scoring every committed entry",
     "replay": "carry out a predictions file with the simulated Panda; write the achieved boxes",
 }
 """Verb name -> one-line help. The module is ``nsrmp_bench.cli.<verb with _>``."""
