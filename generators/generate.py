@@ -31,7 +31,6 @@ from nsrmp_bench.storage.writer import ShardWriter
 
 __all__ = [
     "DEFAULT_SHARD_SIZE",
-    "GenerationStats",
     "generate_part",
     "generate_split",
     "make_episode",
@@ -42,10 +41,6 @@ __all__ = [
 
 DEFAULT_SHARD_SIZE = 100
 MAX_ATTEMPTS = 64
-
-
-GenerationStats = AttemptLog
-"""Counts of generated episodes, attempts, and rejections by reason."""
 
 
 def realise_config(
@@ -98,9 +93,9 @@ def _init_worker(split_id: str, progress: Any) -> None:
 
 def _generate_shard(
     split_id: str, part: str, start: int, stop: int, out_dir: str
-) -> tuple[ShardRecord, GenerationStats]:
+) -> tuple[ShardRecord, AttemptLog]:
     spec = load_split(split_id)
-    stats = GenerationStats()
+    stats = AttemptLog()
     with ShardWriter(out_dir, start, stop, split=f"{split_id}/{part}",
                      package_version=__version__) as writer:
         for i in range(start, stop):
@@ -157,7 +152,7 @@ def generate_part(
     limit: int | None = None,
     on_progress: ProgressCallback | None = None,
     on_start: Callable[[int, int], None] | None = None,
-) -> tuple[Manifest, GenerationStats]:
+) -> tuple[Manifest, AttemptLog]:
     """Generate (or resume) one part into ``out_dir``; returns its manifest and stats."""
     count = spec.part(part).count if limit is None else min(limit, spec.part(part).count)
     out = Path(out_dir)
@@ -168,7 +163,7 @@ def generate_part(
     done = count - sum(b - a for a, b in todo)
     if on_start is not None:
         on_start(count, done)
-    stats = GenerationStats()
+    stats = AttemptLog()
     if todo:
         ctx = mp.get_context("spawn")
         with ctx.Manager() as manager:
@@ -177,7 +172,7 @@ def generate_part(
                 max_workers=max(1, min(workers, len(todo))), mp_context=ctx,
                 initializer=_init_worker, initargs=(spec.id, progress),
             ) as pool:
-                pending: set[Future[tuple[ShardRecord, GenerationStats]]] = {
+                pending: set[Future[tuple[ShardRecord, AttemptLog]]] = {
                     pool.submit(_generate_shard, spec.id, part, a, b, str(out)) for a, b in todo
                 }
                 try:
@@ -216,7 +211,7 @@ def generate_split(
     *,
     parts: list[str] | None = None,
     **kwargs: Any,
-) -> dict[str, tuple[Manifest, GenerationStats]]:
+) -> dict[str, tuple[Manifest, AttemptLog]]:
     """Generate every part (or ``parts``) of ``split_id`` into ``out_dir/<part>/``."""
     spec = load_split(split_id)
     names = list(spec.parts) if parts is None else parts

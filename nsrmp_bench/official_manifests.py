@@ -10,7 +10,7 @@ import json
 from importlib import resources
 from typing import Any
 
-__all__ = ["official_manifest", "official_manifest_name"]
+__all__ = ["official_manifest", "official_manifest_name", "official_manifest_text"]
 
 
 def official_manifest_name(split_id: str, part: str) -> str:
@@ -18,12 +18,18 @@ def official_manifest_name(split_id: str, part: str) -> str:
     return f"{split_id}-{part}.json"
 
 
-def official_manifest(split_id: str, part: str) -> dict[str, Any] | None:
-    """The committed manifest as a dict, or None when none is committed."""
+def official_manifest_text(split_id: str, part: str) -> str | None:
+    """The committed manifest's text, or None when none is committed."""
     path = resources.files("nsrmp_bench.splits").joinpath(
         "manifests", official_manifest_name(split_id, part)
     )
-    if not path.is_file():
+    return path.read_text("utf-8") if path.is_file() else None
+
+
+def official_manifest(split_id: str, part: str) -> dict[str, Any] | None:
+    """The committed manifest as a dict, or None when none is committed."""
+    text = official_manifest_text(split_id, part)
+    if text is None:
         return None
-    data: dict[str, Any] = json.loads(path.read_text("utf-8"))
+    data: dict[str, Any] = json.loads(text)
     return data

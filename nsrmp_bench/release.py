@@ -14,14 +14,13 @@ from __future__ import annotations
 import os
 import shutil
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from nsrmp_bench._optional import require
 from nsrmp_bench.canonical import sha256_file
 from nsrmp_bench.errors import DownloadError, InvalidArgument
-from nsrmp_bench.official_manifests import official_manifest, official_manifest_name
+from nsrmp_bench.official_manifests import official_manifest, official_manifest_text
 from nsrmp_bench.split_specs import list_splits, load_split
 from nsrmp_bench.storage.manifest import read_manifest
 
@@ -136,13 +135,11 @@ def download(
         registry = read_registry(reg.read_text("utf-8"), root + REGISTRY_NAME)
         reg.unlink()
     files = [_fetch(pooch, root + e.path, out_dir, e, progress=progress) for e in registry]
-    if official:
+    if official:  # the committed manifests are the registry: write them as they are
         for part in load_split(split_id).parts:
-            committed = official_manifest(split_id, part)
-            assert committed is not None
-            text = resources.files("nsrmp_bench.splits").joinpath(
-                "manifests", official_manifest_name(split_id, part)).read_text("utf-8")
-            (out_dir / part / "manifest.json").write_text(text, "utf-8")
+            text = official_manifest_text(split_id, part)
+            if text is not None:
+                (out_dir / part / "manifest.json").write_text(text, "utf-8")
     return files
 
 

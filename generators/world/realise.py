@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.episode import ObjectTargets, Observations, Rendering
 from nsrmp_bench.errors import GenerationError, InvalidArgument
-from nsrmp_bench.generators.world.targets import amodal_boxes, frame_targets, project_points
+from nsrmp_bench.generators.world.targets import frame_targets
 from nsrmp_bench.generators.world.world import TABLE_HALF_SIZE, World
 from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.scene import Scene, State
@@ -359,8 +359,8 @@ def realise(
                 amodal[k] = ft.boxes_amodal
                 centre[k] = ft.depth_centre
             else:
-                amodal[k] = amodal_boxes(cam, extents, settled).reshape(n, 4)
-                centre[k] = project_points(cam, settled[:, :3])[1].astype(np.float32)
+                amodal[k] = cam.amodal_boxes(extents, settled[:, :3], settled[:, 3:7])
+                centre[k] = cam.project(settled[:, :3])[1].astype(np.float32)
             stats["settle_steps"].append(result.steps)
             stats["settled"].append(result.settled)
             stats["max_drift_m"].append(checks["max_drift_m"])

@@ -24,6 +24,11 @@ __all__ = ["Camera", "quaternion_matrices"]
 F64 = NDArray[np.float64]
 
 
+def _frozen(a: F64) -> F64:
+    a.setflags(write=False)
+    return a
+
+
 def _unit(v: F64) -> F64:
     n = float(np.linalg.norm(v))
     if n == 0.0:
@@ -72,22 +77,22 @@ class Camera:
 
     @cached_property
     def rotation(self) -> F64:
-        """3x3 rotation taking world directions into the optical frame."""
+        """3x3 rotation taking world directions into the optical frame (read-only)."""
         eye = np.asarray(self.eye, dtype=np.float64)
         fwd = _unit(np.asarray(self.target, dtype=np.float64) - eye)
         right = _unit(np.cross(fwd, np.asarray(self.up, dtype=np.float64)))
         down = np.cross(fwd, right)
-        return np.stack([right, down, fwd])
+        return _frozen(np.stack([right, down, fwd]))
 
-    @property
+    @cached_property
     def extrinsics(self) -> F64:
-        """4x4 transform from world to the optical frame."""
+        """4x4 transform from world to the optical frame (read-only)."""
         r = self.rotation
         t = -r @ np.asarray(self.eye, dtype=np.float64)
         out = np.eye(4)
         out[:3, :3] = r
         out[:3, 3] = t
-        return out
+        return _frozen(out)
 
     @property
     def view_matrix_gl(self) -> list[float]:
@@ -131,15 +136,19 @@ class Camera:
         return (f * n / (f - (f - n) * d)).astype(np.float32)
 
     # -- projection ------------------------------------------------------------------
+    @cached_property
+    def projection(self) -> F64:
+        """The 3x4 matrix K[R|t] (computed once per camera; read-only)."""
+        return _frozen(self.intrinsics @ self.extrinsics[:3, :])
+
     def project(self, points: NDArray[Any]) -> tuple[F64, F64]:
         """Project world points ``(..., 3)`` to pixels ``(..., 2)`` and depths ``(...)``."""
-        p = np.asarray(points, dtype=np.float64)
-        cam = p @ self.rotation.T - self.rotation @ np.asarray(self.eye, dtype=np.float64)
-        z = cam[..., 2]
-        f = self.focal
-        u = f * cam[..., 0] / z + self.width / 2.0
-        v = f * cam[..., 1] / z + self.height / 2.0
-        return np.stack([u, v], axis=-1), z
+        p = self.projection
+        rt = self.extrinsics
+        pts = np.asarray(points, dtype=np.float64)
+        h = pts @ p[:, :3].T + p[:, 3]
+        z = pts @ rt[2, :3] + rt[2, 3]
+        return h[..., :2] / h[..., 2:3], z
 
     def backproject(self, pixels: NDArray[Any], depth: NDArray[Any]) -> F64:
         """Inverse of :meth:`project`: pixels ``(..., 2)`` at depths ``(...)`` to world points."""
@@ -152,20 +161,26 @@ class Camera:
         return cam @ self.rotation + np.asarray(self.eye, dtype=np.float64)
 
     def amodal_boxes(
-        self, extents: NDArray[Any], positions: NDArray[Any], orientations: NDArray[Any]
+        self,
+        extents: NDArray[Any],
+        positions: NDArray[Any],
+        orientations: NDArray[Any],
+        *,
+        rotations: NDArray[Any] | None = None,
     ) -> NDArray[np.float32]:
         """Amodal 2D boxes ``(N, 4)`` pixel xyxy of oriented 3D boxes, clipped to the image.
 
         ``extents`` are full box sizes ``(N, 3)``, ``positions`` box centres ``(N, 3)`` and
-        ``orientations`` xyzw quaternions ``(N, 4)``.
+        ``orientations`` xyzw quaternions ``(N, 4)``; ``rotations`` may pass their rotation
+        matrices ``(N, 3, 3)`` when the caller has them already.
         """
         ext = np.asarray(extents, dtype=np.float64).reshape(-1, 3)
         pos = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
-        rot = quaternion_matrices(np.asarray(orientations, dtype=np.float64).reshape(-1, 4))
-        signs = np.array(
-            [[sx, sy, sz] for sx in (-0.5, 0.5) for sy in (-0.5, 0.5) for sz in (-0.5, 0.5)]
+        rot = (
+            quaternion_matrices(np.asarray(orientations, dtype=np.float64).reshape(-1, 4))
+            if rotations is None else np.asarray(rotations, dtype=np.float64)
         )
-        local = signs[None, :, :] * ext[:, None, :]  # (N, 8, 3)
+        local = _CORNER_SIGNS[None, :, :] * ext[:, None, :]  # (N, 8, 3)
         corners = np.einsum("nij,nkj->nki", rot, local) + pos[:, None, :]
         uv, _ = self.project(corners)
         lo = uv.min(axis=1)
@@ -214,6 +229,11 @@ class Camera:
         """The same camera at another image size (same vertical field of view)."""
         return Camera(width, height, self.fov_y_deg, self.eye, self.target, self.up,
                       self.near, self.far)
+
+
+_CORNER_SIGNS = np.array(
+    [[sx, sy, sz] for sx in (-0.5, 0.5) for sy in (-0.5, 0.5) for sz in (-0.5, 0.5)]
+)
 
 
 def quaternion_matrices(q: NDArray[Any]) -> F64:

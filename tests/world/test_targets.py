@@ -14,7 +14,6 @@ from world_scenes import chain, grid_scene, on_table, on_top, scene_of  # noqa: 
 
 from nsrmp_bench.generators.world.realise import realise  # noqa: E402
 from nsrmp_bench.generators.world.targets import (  # noqa: E402
-    project_points,
     stacked_above,
     visible_boxes,
 )
@@ -35,15 +34,17 @@ def test_visible_boxes_on_a_hand_made_mask() -> None:
     assert counts.tolist() == [6, 0, 1]
 
 
-def test_project_points_matches_the_camera() -> None:
+def test_camera_projection_matches_the_pinhole_formula() -> None:
     pts = np.random.default_rng(0).uniform([-0.4, -0.3, 0.6], [0.4, 0.3, 0.8], (50, 3))
-    uv, z = project_points(OFFICIAL_CAMERA, pts)
-    uv2, z2 = OFFICIAL_CAMERA.project(pts)
-    assert np.allclose(uv, uv2, atol=1e-9) and np.allclose(z, z2, atol=1e-12)
+    uv, z = OFFICIAL_CAMERA.project(pts)
+    cam = (pts - np.asarray(OFFICIAL_CAMERA.eye)) @ OFFICIAL_CAMERA.rotation.T
+    f, w, h = OFFICIAL_CAMERA.focal, OFFICIAL_CAMERA.width, OFFICIAL_CAMERA.height
+    uv2 = np.stack([f * cam[:, 0] / cam[:, 2] + w / 2, f * cam[:, 1] / cam[:, 2] + h / 2], 1)
+    assert np.allclose(uv, uv2, atol=1e-9) and np.allclose(z, cam[:, 2], atol=1e-12)
 
 
-def test_amodal_boxes_match_the_camera() -> None:
-    from nsrmp_bench.generators.world.targets import amodal_boxes
+def test_amodal_boxes_with_given_rotations_match_the_camera() -> None:
+    from nsrmp_bench.geometry.camera import quaternion_matrices
     from nsrmp_bench.scene import yaw_quaternion
 
     rng = np.random.default_rng(2)
@@ -51,7 +52,8 @@ def test_amodal_boxes_match_the_camera() -> None:
     extents = np.array([[0.05, 0.05, 0.05], [0.064, 0.064, 0.046]] * (n // 2))
     poses = np.concatenate([rng.uniform([-0.5, -0.3, 0.6], [0.5, 0.3, 0.8], (n, 3)),
                             [yaw_quaternion(y) for y in rng.uniform(0, 6, n)]], axis=1)
-    ours = amodal_boxes(OFFICIAL_CAMERA, extents, poses)
+    ours = OFFICIAL_CAMERA.amodal_boxes(extents, poses[:, :3], poses[:, 3:],
+                                        rotations=quaternion_matrices(poses[:, 3:]))
     theirs = OFFICIAL_CAMERA.amodal_boxes(extents, poses[:, :3], poses[:, 3:])
     assert np.abs(ours - theirs).max() < 1e-3
 
@@ -123,7 +125,7 @@ def test_projected_silhouettes_match_the_rendered_masks(spread: Any) -> None:
     rot = quaternion_matrices(poses[:, 3:])
     for i, obj in enumerate(scene.objects):
         pts = silhouette_points(obj.shape) @ rot[i].T + poses[i, :3]
-        uv, _ = project_points(OFFICIAL_CAMERA, pts)
+        uv, _ = OFFICIAL_CAMERA.project(pts)
         drawn = _pixels_inside(cv2.convexHull(uv.astype(np.float32)).reshape(-1, 2), seg.shape)
         seen = seg == i
         iou = (drawn & seen).sum() / (drawn | seen).sum()
