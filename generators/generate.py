@@ -21,6 +21,7 @@ from typing import Any
 
 from nsrmp_bench import __version__
 from nsrmp_bench.config import EpisodeConfig
+from nsrmp_bench.dispatch import dispatch_versions
 from nsrmp_bench.episode import Episode, SeedInfo
 from nsrmp_bench.generators.sampler import AttemptLog, first_valid, sample_symbolic
 from nsrmp_bench.split_specs import SplitSpec, load_split
@@ -108,7 +109,9 @@ def _generate_shard(
 
 # -- driver side ---------------------------------------------------------------------
 def versions() -> dict[str, str]:
-    """Package and simulator versions recorded in every manifest."""
+    """Package and simulator versions recorded in every manifest, with the CPU-dependent
+    kernels in use (numpy's SIMD features, the BLAS core), which ``verify`` names when a
+    robot episode differs in bits."""
     out = {"nsrmp-bench": __version__}
     for dist in ("pybullet", "numpy", "h5py"):
         try:
@@ -116,6 +119,7 @@ def versions() -> dict[str, str]:
         except importlib.metadata.PackageNotFoundError:
             out[dist] = "not installed"
     out["physics_fingerprint"] = physics_fingerprint()
+    out.update(dispatch_versions())
     return out
 
 

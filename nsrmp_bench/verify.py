@@ -3,7 +3,11 @@
 :func:`verify` recomputes every shard's sha256 and every episode's content hash, compares
 them with the data's own ``manifest.json``, then compares the root hash with the manifest
 committed in ``splits/manifests/``. When hashes differ it names the shard and episodes and
-explains the likely cause from the recorded versions (PyBullet, numpy, physics fingerprint).
+explains the likely cause from the recorded versions (PyBullet, numpy, physics fingerprint)
+and CPU-dependent kernels (numpy's SIMD features, the BLAS core). Teleport episodes must be
+the same bytes on every machine; robot episodes, which are not bit-stable across CPUs, are
+accepted when they agree within the tolerances their committed manifest states
+(``storage/tolerance.py``).
 """
 
 from __future__ import annotations
@@ -16,13 +20,15 @@ from typing import Any
 import h5py
 
 from nsrmp_bench.canonical import sha256_file
+from nsrmp_bench.dispatch import DISPATCH_KEYS
 from nsrmp_bench.errors import DataIntegrityError, NSRMPError
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.storage.hashing import episode_hash, root_hash
 from nsrmp_bench.storage.manifest import read_manifest
 from nsrmp_bench.storage.reader import read_episode
+from nsrmp_bench.storage.tolerance import compare_summaries, tolerant_summary
 
-__all__ = ["VerifyReport", "verify"]
+__all__ = ["Comparison", "VerifyReport", "compare_with_committed", "verify"]
 
 _SHOW = 10
 
@@ -37,6 +43,7 @@ class VerifyReport:
     episodes: int = 0
     root_hash: str = ""
     committed_root_hash: str | None = None
+    within_tolerance: bool = False
     problems: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
 
@@ -46,15 +53,82 @@ class VerifyReport:
         return not self.problems
 
 
-def _explain(local: dict[str, Any], committed: dict[str, Any]) -> list[str]:
-    lines = []
+def _explain(local: dict[str, Any], committed: dict[str, Any], *, files_ok: bool) -> list[str]:
+    """The likely causes of a difference from the committed manifest, most specific first."""
+    lines: list[str] = []
+    kernels: list[str] = []
     for key in sorted(set(local) | set(committed)):
-        a, b = local.get(key, "absent"), committed.get(key, "absent")
-        if a != b:
-            lines.append(f"{key}: {a} here, {b} in the committed manifest")
-    if not lines:
-        lines.append("the recorded versions agree; the files were changed after generation")
-    return lines
+        a, b = local.get(key, "not recorded"), committed.get(key, "not recorded")
+        if a == b:
+            continue
+        line = f"{key}: {a} here, {b} in the committed manifest"
+        (kernels if key in DISPATCH_KEYS else lines).append(line)
+    if lines:
+        return lines + kernels
+    if not files_ok:
+        return ["the recorded versions agree, and the files do not match their own "
+                "manifest: they were changed or damaged after generation; regenerate or "
+                "re-download them"]
+    here = ", ".join(f"{k} {local.get(k, 'not recorded')}" for k in DISPATCH_KEYS)
+    cause = (
+        "the files match their own manifest (they are as generated) and the recorded "
+        "versions agree, so generation itself computed differently: the CPU-dependent "
+        f"kernels differ ({here}"
+    )
+    if kernels:
+        return [cause + "); " + "; ".join(kernels)
+                + ". Teleport episodes must not depend on them: please report it as a bug, "
+                "with `python -c \"import numpy; numpy.show_runtime()\"`"]
+    return [cause + "; the committed manifest does not record them). Teleport episodes "
+            "must not depend on them: please report it as a bug, with "
+            "`python -c \"import numpy; numpy.show_runtime()\"`"]
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """How local episode hashes compare with a committed manifest's."""
+
+    exact: bool
+    differ: list[int]
+    within_tolerance: list[int]
+    beyond_tolerance: dict[int, list[str]]
+    missing: list[int]
+
+    @property
+    def ok(self) -> bool:
+        """Every episode equal, or (robot episodes) equal within tolerances."""
+        return not self.differ_beyond and not self.missing
+
+    @property
+    def differ_beyond(self) -> list[int]:
+        """Indices that differ and are not excused by a tolerant comparison."""
+        return [i for i in self.differ if i not in set(self.within_tolerance)]
+
+
+def compare_with_committed(
+    local: dict[int, tuple[str, dict[str, Any] | None]], committed: dict[str, Any]
+) -> Comparison:
+    """Compare ``{index: (hash, tolerant summary)}`` with a committed manifest (a dict).
+
+    An episode whose hash differs is accepted when both sides carry a tolerant summary
+    (robot episodes) and the summaries agree within the stated tolerances.
+    """
+    theirs = {int(e["index"]): e for e in committed["episodes"]}
+    differ = [i for i, (h, _) in sorted(local.items())
+              if i not in theirs or theirs[i]["hash"] != h]
+    within: list[int] = []
+    beyond: dict[int, list[str]] = {}
+    for i in differ:
+        ref = theirs.get(i, {}).get("tolerant")
+        if ref is None:
+            continue
+        problems = compare_summaries(local[i][1], ref)
+        if problems:
+            beyond[i] = problems
+        else:
+            within.append(i)
+    missing = sorted(set(theirs) - set(local))
+    return Comparison(not differ and not missing, differ, within, beyond, missing)
 
 
 def verify(data_dir: str | os.PathLike[str], *, deep: bool = True) -> VerifyReport:
@@ -63,6 +137,7 @@ def verify(data_dir: str | os.PathLike[str], *, deep: bool = True) -> VerifyRepo
     manifest = read_manifest(d)
     report = VerifyReport(d, manifest.split)
     recomputed: dict[int, str] = {}
+    summaries: dict[int, dict[str, Any] | None] = {}
     for shard in manifest.shards:
         path = d / shard.file
         report.shards += 1
@@ -75,13 +150,16 @@ def verify(data_dir: str | os.PathLike[str], *, deep: bool = True) -> VerifyRepo
             )
         if not deep:
             recomputed.update((e.index, e.hash) for e in shard.episodes)
+            summaries.update((e.index, e.tolerant) for e in shard.episodes)
             continue
         try:
             with h5py.File(path, "r") as f:
                 group = f["data"]
                 for entry in shard.episodes:
-                    h = episode_hash(read_episode(group[entry.id]))
+                    episode = read_episode(group[entry.id])
+                    h = episode_hash(episode)
                     recomputed[entry.index] = h
+                    summaries[entry.index] = tolerant_summary(episode)
                     report.episodes += 1
                     if h != entry.hash:
                         report.problems.append(
@@ -99,21 +177,36 @@ def verify(data_dir: str | os.PathLike[str], *, deep: bool = True) -> VerifyRepo
         report.notes.append(f"no committed manifest for {manifest.split}: checked locally only")
         return report
     report.committed_root_hash = str(committed["root_hash"])
-    if report.committed_root_hash != report.root_hash:
-        theirs = {int(e["index"]): e["hash"] for e in committed["episodes"]}
-        differ = [i for i, h in sorted(recomputed.items()) if theirs.get(i) != h]
-        missing = sorted(set(theirs) - set(recomputed))
-        ids = [f"{manifest.split}/{i:06d}" for i in differ[:_SHOW]]
-        report.problems.append(
-            f"root hash {report.root_hash[:16]} differs from the committed "
-            f"{report.committed_root_hash[:16]}: {len(differ)} episodes differ"
-            + (f" (first: {', '.join(ids)})" if ids else "")
-            + (f", {len(missing)} committed episodes absent" if missing else "")
+    if report.committed_root_hash == report.root_hash:
+        return report
+    files_ok = not report.problems
+    cmp = compare_with_committed(
+        {i: (h, summaries.get(i)) for i, h in recomputed.items()}, committed
+    )
+    if cmp.within_tolerance:
+        report.notes.append(
+            f"{len(cmp.within_tolerance)} robot episodes differ in bits from the committed "
+            "manifest but agree within its stated tolerances (robot episodes are not "
+            "bit-stable across CPUs; see the manifest's \"comparison\")"
         )
-        report.problems.extend(
-            "likely cause: " + line
-            for line in _explain(manifest.versions, committed.get("versions", {}))
-        )
+    if cmp.ok:
+        report.within_tolerance = True
+        return report
+    bad = cmp.differ_beyond
+    ids = [f"{manifest.split}/{i:06d}" for i in bad[:_SHOW]]
+    report.problems.append(
+        f"root hash {report.root_hash[:16]} differs from the committed "
+        f"{report.committed_root_hash[:16]}: {len(bad)} episodes differ"
+        + (f" (first: {', '.join(ids)})" if ids else "")
+        + (f", {len(cmp.missing)} committed episodes absent" if cmp.missing else "")
+    )
+    for i, why in list(cmp.beyond_tolerance.items())[:_SHOW]:
+        report.problems.append(f"{manifest.split}/{i:06d} beyond tolerance: " + "; ".join(why))
+    report.problems.extend(
+        "likely cause: " + line
+        for line in _explain(manifest.versions, committed.get("versions", {}),
+                             files_ok=files_ok)
+    )
     return report
 
 

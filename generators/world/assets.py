@@ -17,6 +17,7 @@ visuals are its collision meshes (3.5k instead of 103k triangles; see
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import tempfile
 from dataclasses import dataclass
@@ -231,9 +232,11 @@ def silhouette_points(shape: str, circle_points: int = 16) -> NDArray[np.float64
         if part.kind == "box":
             pts.append(signs * np.asarray(part.half_extents) + c)
         else:
-            a = np.linspace(0.0, 2.0 * np.pi, circle_points, endpoint=False)
+            a = np.linspace(0.0, 2.0 * np.pi, circle_points, endpoint=False).tolist()
             r, _, hz = part.half_extents
-            ring = np.stack([r * np.cos(a), r * np.sin(a), np.zeros_like(a)], axis=1)
+            # math.cos/sin (libm), not np.cos/np.sin: numpy's SIMD kernels differ by CPU.
+            ring = np.array([[r * math.cos(t), r * math.sin(t), 0.0] for t in a],
+                            dtype=np.float64).reshape(-1, 3)
             pts.append(ring + c + [0.0, 0.0, hz])
             pts.append(ring + c - [0.0, 0.0, hz])
     return np.concatenate(pts, axis=0)

@@ -28,6 +28,7 @@ per state, drifts, tilts, penetration, smallest exposed fraction) and the thresh
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, Final
@@ -127,17 +128,32 @@ def _label(scene: Scene, i: int) -> str:
     return f"object {i} ({scene.objects[i].label})"
 
 
+def _acos_deg(c: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Degrees of ``arccos`` of values in [-1, 1], element by element through libm.
+
+    ``np.arccos`` is not used: numpy dispatches it to SIMD kernels by CPU feature (SVML
+    on AVX-512), whose last bits differ from libm's, and these angles reach stored physics
+    reports and rejection decisions. ``math.acos`` is what numpy itself calls without
+    AVX-512, so the bytes made on such machines stay; ``* (180 / pi)`` is ``np.degrees``.
+    """
+    flat = [math.acos(v) for v in np.asarray(c, dtype=np.float64).reshape(-1).tolist()]
+    out = np.array(flat, dtype=np.float64).reshape(np.shape(c))
+    return out * (180.0 / math.pi)
+
+
 def tilt_deg(quat: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Angle in degrees between each body's z axis and world z, for unit xyzw quaternions."""
+    """Angle in degrees between each body's z axis and world z, for unit xyzw quaternions.
+
+    Dispatch-invariant: the same bits whatever SIMD kernels numpy picks on this CPU.
+    """
     x, y = quat[..., 0], quat[..., 1]
     c = np.clip(1.0 - 2.0 * (x * x + y * y), -1.0, 1.0)
-    return np.degrees(np.arccos(c))
+    return _acos_deg(c)
 
 
 def _rotation_deg(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
     dot = np.abs(np.sum(a * b, axis=-1))
-    out: NDArray[np.float64] = np.degrees(2.0 * np.arccos(np.clip(dot, 0.0, 1.0)))
-    return out
+    return 2.0 * _acos_deg(np.clip(dot, 0.0, 1.0))
 
 
 def _state_array(state: State) -> NDArray[np.float64]:

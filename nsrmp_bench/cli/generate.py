@@ -22,6 +22,7 @@ from rich.console import Console
 from nsrmp_bench.cli.progress import episode_progress
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.split_specs import load_split
+from nsrmp_bench.verify import compare_with_committed
 
 __all__ = ["add_arguments", "run"]
 
@@ -74,8 +75,14 @@ def run(args: argparse.Namespace) -> int:
         console.print(f"  root hash {manifest.root_hash}")
         committed = official_manifest(spec.id, part)
         if committed is not None and args.limit is None:
+            cmp = compare_with_committed(
+                {e.index: (e.hash, e.tolerant) for e in manifest.episodes}, committed)
             if committed["root_hash"] == manifest.root_hash:
                 console.print("  matches the committed manifest")
+            elif cmp.ok:
+                console.print(
+                    f"  matches the committed manifest: {len(cmp.within_tolerance)} robot "
+                    "episodes differ in bits but agree within its stated tolerances")
             else:
                 console.print(
                     "  [red]differs from the committed manifest[/red]: run "

@@ -55,7 +55,9 @@ def run(args: argparse.Namespace) -> int:
                 f"{report.episodes} episodes rehashed, root {report.root_hash[:16]}"
             )
             if report.committed_root_hash is not None and report.ok:
-                console.print("  matches the committed manifest")
+                console.print("  matches the committed manifest" + (
+                    " (robot episodes within its stated tolerances)"
+                    if report.within_tolerance else ""))
             for line in report.problems:
                 console.print(f"  - {line}")
             for line in report.notes:

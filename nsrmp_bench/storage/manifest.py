@@ -12,8 +12,12 @@ Layout (keys sorted; one episode row per line, so diffs stay readable)::
      "root_hash": "<sha256 over [index, episode hash] pairs in index order>",
      "shards": [{"file", "index_range", "count", "sha256", "bytes", "split"}, ...],
      "episodes": [{"index", "id", "hash", "steps", "objects", "relational",
-                   "relation_needed", "phrasing", "template"}, ...]
+                   "relation_needed", "phrasing", "template"[, "tolerant"]}, ...]
+     ["comparison": {...}]  only with robot episodes: how they are compared
     }
+
+Robot episodes are not bit-stable across CPUs: their rows carry a ``tolerant`` summary and
+the manifest a ``comparison`` section stating the tolerances (``storage/tolerance.py``).
 
 The manifest carries no timestamp: the same episodes give the same manifest bytes.
 """
@@ -35,6 +39,7 @@ from nsrmp_bench.errors import DataIntegrityError, InvalidArgument
 from nsrmp_bench.storage.hashing import root_hash
 from nsrmp_bench.storage.layout import check_schema_version
 from nsrmp_bench.storage.records import EpisodeEntry, ShardRecord, atomic_write_text
+from nsrmp_bench.storage.tolerance import comparison_spec
 
 __all__ = ["MANIFEST_FORMAT", "MANIFEST_NAME", "Manifest", "build_manifest", "read_manifest"]
 
@@ -99,6 +104,8 @@ class Manifest:
             "root_hash": self.root_hash,
             "shards": [s.to_dict(with_episodes=False) for s in self.shards],
             "episodes": rows,
+            **({"comparison": comparison_spec()}
+               if any(e.tolerant is not None for s in self.shards for e in s.episodes) else {}),
         }
 
     def to_json(self) -> str:

@@ -25,22 +25,32 @@ CATEGORY_KEYS = ("steps", "objects", "relational", "relation_needed", "phrasing"
 
 @dataclass(frozen=True)
 class EpisodeEntry:
-    """One episode of a shard: instance index, id, content hash and categories."""
+    """One episode of a shard: instance index, id, content hash and categories.
+
+    ``tolerant`` is the tolerant summary of a robot episode
+    (:func:`~nsrmp_bench.storage.tolerance.tolerant_summary`), None otherwise.
+    """
 
     index: int
     id: str
     hash: str
     categories: dict[str, Any] = field(default_factory=dict, compare=False)
+    tolerant: dict[str, Any] | None = field(default=None, compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able form (categories flattened in)."""
-        return {"index": self.index, "id": self.id, "hash": self.hash, **self.categories}
+        out = {"index": self.index, "id": self.id, "hash": self.hash, **self.categories}
+        if self.tolerant is not None:
+            out["tolerant"] = self.tolerant
+        return out
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> EpisodeEntry:
         """Inverse of :meth:`to_dict`."""
         cats = {k: data[k] for k in CATEGORY_KEYS if k in data}
-        return cls(int(data["index"]), str(data["id"]), str(data["hash"]), cats)
+        tolerant = data.get("tolerant")
+        return cls(int(data["index"]), str(data["id"]), str(data["hash"]), cats,
+                   dict(tolerant) if isinstance(tolerant, dict) else None)
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,9 @@ from nsrmp_bench.storage.layout import (
     parse_shard_filename,
 )
 from nsrmp_bench.storage.manifest import MANIFEST_NAME, Manifest, build_manifest
+from nsrmp_bench.storage.reader import read_episode
 from nsrmp_bench.storage.records import CATEGORY_KEYS, EpisodeEntry, ShardRecord
+from nsrmp_bench.storage.tolerance import TOLERANT_EXECUTORS, tolerant_summary
 from nsrmp_bench.storage.writer import ShardWriter
 
 __all__ = [
@@ -84,8 +86,10 @@ def record_from_shard(path: str | os.PathLike[str], split: str | None = None) ->
             for row in rows:
                 g = f["data"][row["id"]]
                 cats = {k: row[k] for k in CATEGORY_KEYS if k in row}
+                tolerant = (tolerant_summary(read_episode(g, images=False))
+                            if g.attrs.get("executor") in TOLERANT_EXECUTORS else None)
                 entries.append(EpisodeEntry(int(row["index"]), str(row["id"]),
-                                            str(g.attrs["content_hash"]), cats))
+                                            str(g.attrs["content_hash"]), cats, tolerant))
             file_split = str(f.attrs.get("split", ""))
             generator = str(f.attrs.get("generator", ""))
     except (OSError, KeyError, ValueError) as exc:

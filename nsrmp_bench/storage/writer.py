@@ -37,6 +37,7 @@ from nsrmp_bench.storage.layout import (
     small_codec,
 )
 from nsrmp_bench.storage.records import EpisodeEntry, ShardRecord, fsync_dir
+from nsrmp_bench.storage.tolerance import tolerant_summary
 from nsrmp_bench.vocabulary import vocabulary_dict
 
 __all__ = ["ShardWriter", "write_episode_group", "write_shard"]
@@ -160,7 +161,8 @@ class ShardWriter:
         write_episode_group(self._data, episode, index, ehash)
         self._f.flush()
         self._entries.append(EpisodeEntry(index, episode.id, ehash,
-                                          episode.symbolic.categories()))
+                                          episode.symbolic.categories(),
+                                          tolerant_summary(episode)))
         self._generators.append(episode.symbolic.generator)
         if self._camera is None and episode.rendering is not None:
             self._camera = canonical_json(episode.rendering.camera.to_dict())
