@@ -13,6 +13,14 @@ Resampling is the classical one (multinomial counts: n draws with replacement) u
 counts, its standard large-sample equivalent, several times cheaper to draw) above that.
 
 Randomness comes only from the ``numpy.random.Generator`` passed in.
+
+**The same bits on every CPU.** BLAS picks its matrix-product kernels by CPU (AVX2,
+AVX-512, ...), and in floating point their different summation orders and fused
+multiply-adds give different last bits. So the values enter the products on a grid of
+:data:`GRID` (2^-24, float32's resolution on [0.5, 1)), in float64: every product of a
+count and a grid value and every partial sum is then an exact float64 (exact while a sum
+stays below 2^29), so any kernel, in any order, returns the same sums, and the ratios,
+quantiles and p-values computed from them are the same bits everywhere.
 """
 
 from __future__ import annotations
@@ -27,6 +35,7 @@ from numpy.typing import NDArray
 from nsrmp_bench.errors import InvalidArgument
 
 __all__ = [
+    "GRID",
     "POISSON_ABOVE",
     "GroupIntervals",
     "Intervals",
@@ -38,13 +47,21 @@ __all__ = [
 ]
 
 F64 = NDArray[np.float64]
-F32 = NDArray[np.float32]
 I64 = NDArray[np.int64]
 
 _CHUNK_ELEMENTS = 4_000_000  # weights per chunk (instances x resamples)
 
+GRID = 2.0**-24
+"""Values are rounded to multiples of this before the (exact) bootstrap products."""
+
 POISSON_ABOVE = 10_000
 """Instances above which resampling switches from multinomial to Poisson counts."""
+
+
+def _on_grid(a: NDArray[np.floating]) -> F64:
+    """``a`` rounded to multiples of :data:`GRID` (float64; exact operations only)."""
+    out: F64 = np.rint(np.asarray(a, dtype=np.float64) / GRID) * GRID
+    return out
 
 
 def _check(n_boot: int, level: float) -> None:
@@ -162,7 +179,7 @@ def _means(values: F64, mask: NDArray[np.bool_]) -> tuple[F64, I64]:
 class _Grouping:
     perm: I64  # instances sorted by group
     bounds: I64  # (G+1,) group g is perm[bounds[g]:bounds[g+1]]
-    x: F32  # the value matrix in that order
+    x: F64  # the value matrix in that order, on the grid
     n_groups: int
 
 
@@ -215,7 +232,7 @@ def bootstrap_intervals(
             sel = perm[bounds[g] : bounds[g + 1]]
             gmean[g], gn[g] = _means(v[sel], mask[sel])
         if group_intervals:
-            prepared.append(_Grouping(perm, bounds, x[perm].astype(np.float32), n_groups))
+            prepared.append(_Grouping(perm, bounds, _on_grid(x[perm]), n_groups))
         group_out.append(GroupIntervals(gmean, gmean * np.nan, gmean * np.nan, gn))
     if n_boot == 0 or n == 0:
         nan = np.full(k, np.nan)
@@ -224,10 +241,10 @@ def bootstrap_intervals(
     weights = poisson_weights if resampling_method(n) == "poisson" else multinomial_weights
     samples = np.empty((n_boot, k))
     gsamples = [np.empty((n_boot, gr.n_groups, k)) for gr in prepared]
-    xt = np.ascontiguousarray(x.astype(np.float32).T)  # (K + masks, n)
+    xt = np.ascontiguousarray(_on_grid(x).T)  # (K + masks, n): exact products, any kernel
     step = next(_chunks(n, n_boot))[1]
-    wf = np.empty((n, step), dtype=np.float32)  # reused: no fresh pages per chunk
-    gbuf = np.empty((n, step), dtype=np.float32)
+    wf = np.empty((n, step), dtype=np.float64)  # reused: no fresh pages per chunk
+    gbuf = np.empty((n, step), dtype=np.float64)
     ubuf = np.empty((0, 0), dtype=np.uint16)
     for start, stop in _chunks(n, n_boot):
         size = stop - start
@@ -274,20 +291,20 @@ def sign_flip_pvalues(
     d = np.asarray(differences, dtype=np.float64)
     n, k = d.shape
     mask = ~np.isnan(d)
-    dz = np.where(mask, d, 0.0)
+    dz = _on_grid(np.where(mask, d, 0.0))  # on the grid: every sum below is exact
     count = mask.sum(axis=0)
     observed = np.abs(dz.sum(axis=0))
-    # float32 sums differ from the exact ones by far less than this; ties count as hits.
+    # Near-ties count as hits (the margin is far below any real difference).
     tol = 1e-6 * np.abs(dz).sum(axis=0) + 1e-12
     hits = np.zeros(k, dtype=np.int64)
-    dt = np.ascontiguousarray(dz.astype(np.float32).T)  # (K, n)
+    dt = np.ascontiguousarray(dz.T)  # (K, n)
     for start, stop in _chunks(n, n_perm):
         size = stop - start
         bits = np.unpackbits(
             np.frombuffer(rng.bytes((size * n + 7) // 8), dtype=np.uint8), count=size * n
         )
-        signs = bits.reshape(n, size).astype(np.float32) * 2.0 - 1.0
-        sums = np.abs((dt @ signs).astype(np.float64))  # (K, size)
+        signs = bits.reshape(n, size).astype(np.float64) * 2.0 - 1.0
+        sums = np.abs(dt @ signs)  # (K, size), exact
         hits += (sums >= (observed - tol)[:, None]).sum(axis=1)
     p = (1.0 + hits.astype(np.float64)) / (1.0 + n_perm)
     out: F64 = np.where(count > 0, p, np.nan)

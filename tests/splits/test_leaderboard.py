@@ -3,10 +3,15 @@
 from __future__ import annotations
 
 import json
+import os
+import platform
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
+from nsrmp_bench.dispatch import lowest_dispatch_env
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.leaderboard import build, load_entries
 
@@ -15,14 +20,19 @@ pytestmark = pytest.mark.sim
 BOARDS = Path(__file__).resolve().parents[2] / "leaderboards"
 
 
-def test_smoke_board_rebuilds_to_the_committed_bytes(smoke_dir: Path, tmp_path: Path) -> None:
+def _entries(tmp_path: Path, splits: set[str]) -> Path:
     entries = tmp_path / "entries"
-    entries.mkdir()
+    entries.mkdir(exist_ok=True)
     for entry in load_entries(BOARDS / "entries"):
-        if entry.split == "smoke-v1/test":
+        if entry.split in splits:
             data = json.loads((BOARDS / "entries" / f"{entry.name}.json").read_text())
             data["predictions"] = str(entry.predictions)  # absolute: the copy moved
             (entries / f"{entry.name}.json").write_text(json.dumps(data))
+    return entries
+
+
+def test_smoke_board_rebuilds_to_the_committed_bytes(smoke_dir: Path, tmp_path: Path) -> None:
+    entries = _entries(tmp_path, {"smoke-v1/test"})
     root = tmp_path / "data"
     root.mkdir()
     (root / "smoke-v1").symlink_to(smoke_dir, target_is_directory=True)
@@ -31,6 +41,43 @@ def test_smoke_board_rebuilds_to_the_committed_bytes(smoke_dir: Path, tmp_path: 
     for suffix in (".json", ".md"):
         rebuilt = (tmp_path / "out" / f"smoke-v1-test{suffix}").read_text()
         assert rebuilt == (BOARDS / f"smoke-v1-test{suffix}").read_text()
+
+
+@pytest.fixture(scope="module")
+def board_data(smoke_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """smoke-v1 and paper-v1/test (1,000 episodes, about 30 s with 2 workers)."""
+    from nsrmp_bench.generators.generate import generate_part
+    from nsrmp_bench.split_specs import load_split
+
+    root = tmp_path_factory.mktemp("boards")
+    (root / "smoke-v1").symlink_to(smoke_dir, target_is_directory=True)
+    generate_part(load_split("paper-v1"), "test", root / "paper-v1" / "test", workers=2)
+    return root
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("dispatch", ["default", "lowest"])
+def test_every_board_rebuilds_to_the_committed_bytes_under_any_dispatch(
+    board_data: Path, tmp_path: Path, dispatch: str
+) -> None:
+    """`nsrmp-bench leaderboard` in a process with numpy's default SIMD dispatch and
+    OpenBLAS core, and in one with only numpy's baseline and a pre-AVX OpenBLAS core
+    (BLAS kernels used to change the bootstrap bounds' last digits)."""
+    entries = _entries(tmp_path, {"smoke-v1/test", "paper-v1/test"})
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("NPY_DISABLE_CPU_FEATURES", "OPENBLAS_CORETYPE")}
+    if dispatch == "lowest":
+        if platform.machine().lower() not in {"x86_64", "amd64"}:
+            pytest.skip("the lowest-dispatch settings are named for x86-64")
+        env.update(lowest_dispatch_env())
+    out = tmp_path / "out"
+    subprocess.run([sys.executable, "-m", "nsrmp_bench.cli.main", "leaderboard", "--data",
+                    str(board_data), "--entries", str(entries), "--out", str(out)],
+                   env=env, check=True, capture_output=True, timeout=300)
+    for name in ("paper-v1-test", "smoke-v1-test"):
+        for suffix in (".json", ".md"):
+            rebuilt = (out / f"{name}{suffix}").read_text()
+            assert rebuilt == (BOARDS / f"{name}{suffix}").read_text(), f"{name}{suffix}"
 
 
 def test_bad_entries_name_the_fix(tmp_path: Path) -> None:
