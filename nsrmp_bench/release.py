@@ -24,7 +24,7 @@ from nsrmp_bench.official_manifests import official_manifest, official_manifest_
 from nsrmp_bench.split_specs import list_splits, load_split
 from nsrmp_bench.storage.manifest import read_manifest
 
-__all__ = ["MIRROR_ENV", "RegistryEntry", "download", "pack", "read_registry"]
+__all__ = ["MIRROR_ENV", "ByteProgress", "RegistryEntry", "download", "pack", "read_registry"]
 
 MIRROR_ENV = "NSRMP_BENCH_MIRROR"
 """Environment variable holding the default mirror base URL."""
@@ -143,6 +143,59 @@ def download(
     return files
 
 
+def _is_hash_mismatch(exc: ValueError) -> bool:
+    """True for pooch's "hash of downloaded file ... does not match" (and only that)."""
+    text = str(exc)
+    return "hash of downloaded file" in text and "does not match" in text
+
+
+class ByteProgress:
+    """A rich progress bar with the interface pooch drives (``total``, ``update``,
+    ``reset``, ``close``), so downloads show progress without tqdm."""
+
+    def __init__(self, description: str) -> None:
+        from rich.progress import (
+            BarColumn,
+            DownloadColumn,
+            Progress,
+            TextColumn,
+            TimeRemainingColumn,
+            TransferSpeedColumn,
+        )
+
+        self._progress = Progress(TextColumn("{task.description}"), BarColumn(),
+                                  DownloadColumn(), TransferSpeedColumn(),
+                                  TimeRemainingColumn(), transient=False)
+        self._task = self._progress.add_task(description, total=None)
+        self._started = False
+
+    @property
+    def total(self) -> float | None:
+        """Bytes expected (pooch sets it from the Content-Length)."""
+        return self._progress.tasks[0].total
+
+    @total.setter
+    def total(self, value: float | None) -> None:
+        if not self._started:
+            self._progress.start()
+            self._started = True
+        self._progress.update(self._task, total=value or None)
+
+    def update(self, n: float) -> None:
+        """Advance by ``n`` bytes."""
+        self._progress.advance(self._task, n)
+
+    def reset(self) -> None:
+        """Back to zero (pooch then fills the bar with the real total)."""
+        self._progress.reset(self._task, total=self.total)
+
+    def close(self) -> None:
+        """Stop drawing."""
+        if self._started:
+            self._progress.stop()
+            self._started = False
+
+
 def _fetch(pooch: Any, url: str, out_dir: Path, entry: RegistryEntry | None,
            *, progress: bool = False) -> Path:
     name = entry.path if entry is not None else REGISTRY_NAME
@@ -150,10 +203,18 @@ def _fetch(pooch: Any, url: str, out_dir: Path, entry: RegistryEntry | None,
     known = None if entry is None else f"sha256:{entry.sha256}"
     if entry is not None and target.is_file() and sha256_file(target) == entry.sha256:
         return target  # resume: already here and correct
+    bar = ByteProgress(Path(name).name) if progress else False
     try:
         path = pooch.retrieve(url, known_hash=known, fname=Path(name).name,
-                              path=target.parent, progressbar=progress)
-    except ValueError as exc:  # pooch: hash mismatch; it deleted the download
+                              path=target.parent, progressbar=bar)
+    except ValueError as exc:
+        if not _is_hash_mismatch(exc):  # pooch refused for another reason: say which
+            msg = (
+                f"{url}: pooch refused the download ({exc}); the file was not checked, so "
+                "nothing is known about the mirror's copy: fix the cause named here, or "
+                "download with --quiet"
+            )
+            raise DownloadError(msg) from exc
         msg = (
             f"{url}: the downloaded file does not match the registry's sha256 "
             f"{entry.sha256 if entry else ''} and was deleted ({exc}); the mirror's copy is "
