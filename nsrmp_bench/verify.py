@@ -69,19 +69,18 @@ def _explain(local: dict[str, Any], committed: dict[str, Any], *, files_ok: bool
         return ["the recorded versions agree, and the files do not match their own "
                 "manifest: they were changed or damaged after generation; regenerate or "
                 "re-download them"]
+    cause = ("the files match their own manifest (they are as generated) and the recorded "
+             "versions agree, so generation itself computed differently on this CPU")
+    report = ("; teleport episodes must not depend on that: please report it as a bug, with "
+              "the output of `python -c \"import numpy; numpy.show_runtime()\"`")
     here = ", ".join(f"{k} {local.get(k, 'not recorded')}" for k in DISPATCH_KEYS)
-    cause = (
-        "the files match their own manifest (they are as generated) and the recorded "
-        "versions agree, so generation itself computed differently: the CPU-dependent "
-        f"kernels differ ({here}"
-    )
+    if all(k not in committed for k in DISPATCH_KEYS):
+        return [f"{cause}: its CPU-dependent kernels are {here}, which the committed manifest "
+                f"does not record{report}"]
     if kernels:
-        return [cause + "); " + "; ".join(kernels)
-                + ". Teleport episodes must not depend on them: please report it as a bug, "
-                "with `python -c \"import numpy; numpy.show_runtime()\"`"]
-    return [cause + "; the committed manifest does not record them). Teleport episodes "
-            "must not depend on them: please report it as a bug, with "
-            "`python -c \"import numpy; numpy.show_runtime()\"`"]
+        return [f"{cause}: its CPU-dependent kernels differ ({'; '.join(kernels)}){report}"]
+    return [f"{cause}, although the recorded CPU-dependent kernels agree ({here}): a "
+            f"library below numpy (libm, PyBullet) picked another code path{report}"]
 
 
 @dataclass(frozen=True)
@@ -193,20 +192,27 @@ def verify(data_dir: str | os.PathLike[str], *, deep: bool = True) -> VerifyRepo
         report.within_tolerance = True
         return report
     bad = cmp.differ_beyond
-    ids = [f"{manifest.split}/{i:06d}" for i in bad[:_SHOW]]
-    report.problems.append(
-        f"root hash {report.root_hash[:16]} differs from the committed "
-        f"{report.committed_root_hash[:16]}: {len(bad)} episodes differ"
-        + (f" (first: {', '.join(ids)})" if ids else "")
-        + (f", {len(cmp.missing)} committed episodes absent" if cmp.missing else "")
-    )
-    for i, why in list(cmp.beyond_tolerance.items())[:_SHOW]:
-        report.problems.append(f"{manifest.split}/{i:06d} beyond tolerance: " + "; ".join(why))
-    report.problems.extend(
-        "likely cause: " + line
-        for line in _explain(manifest.versions, committed.get("versions", {}),
-                             files_ok=files_ok)
-    )
+    if bad:
+        ids = [f"{manifest.split}/{i:06d}" for i in bad[:_SHOW]]
+        report.problems.append(
+            f"root hash {report.root_hash[:16]} differs from the committed "
+            f"{report.committed_root_hash[:16]}: {len(bad)} episodes differ "
+            f"(first: {', '.join(ids)})"
+        )
+        for i, why in list(cmp.beyond_tolerance.items())[:_SHOW]:
+            report.problems.append(f"{manifest.split}/{i:06d} beyond tolerance: "
+                                   + "; ".join(why))
+        report.problems.extend(
+            "likely cause: " + line
+            for line in _explain(manifest.versions, committed.get("versions", {}),
+                                 files_ok=files_ok)
+        )
+    if cmp.missing:
+        report.problems.append(
+            f"{len(cmp.missing)} of the committed manifest's episodes are absent here "
+            f"(indices {cmp.missing[0]}..{cmp.missing[-1]}): the data is incomplete; "
+            "generate the whole part (no --limit) or finish the download"
+        )
     return report
 
 
