@@ -13,11 +13,17 @@ summary agrees within :data:`ROBOT_TOLERANCES`:
 * every object's pose in every state: position within ``position_mm``, quaternion
   components within ``orientation`` (q and -q are the same rotation);
 * every amodal box in every state within ``box_px`` (pixel coordinates);
-* the trajectory: sample count within ``trajectory_samples``, and the end-effector position
-  at every ``TRAJECTORY_STRIDE``-th sample within ``trajectory_mm``.
+* the trajectory: sample count within ``trajectory_samples``, and every recorded
+  end-effector position within ``trajectory_mm`` of the other machine's path (the polyline
+  through its samples, within ``trajectory_samples`` samples of the same time).
 
-The summary stores values quantised (0.1 mm, 1e-4, 0.1 px), which is far finer than the
-tolerances, so the comparison never flips on a last bit.
+The path is compared as a path, not sample by sample: once the fingers touch an object,
+contact dynamics amplify the last-bit differences to micrometres, enough for a segment's
+step count (``ceil(seconds / dt)``) to come out one physics step (1/240 s) longer on one
+machine, after which samples at the same index lie 2-10 mm apart along the same path
+(measured on robot-v1/test with OpenBLAS Haswell vs Nehalem: 14 of 216 episodes). The
+summary stores values quantised (0.1 mm, 1e-4, 0.1 px), far finer than the tolerances, so
+the comparison never flips on a last bit.
 """
 
 from __future__ import annotations
@@ -33,25 +39,29 @@ from nsrmp_bench.episode import Episode
 __all__ = [
     "ROBOT_TOLERANCES",
     "TOLERANT_EXECUTORS",
-    "TRAJECTORY_STRIDE",
     "compare_summaries",
     "comparison_spec",
     "tolerant_summary",
 ]
 
 ROBOT_TOLERANCES: Final[dict[str, float]] = {
-    "position_mm": 1.0,
-    "orientation": 0.002,
-    "box_px": 1.0,
-    "trajectory_mm": 1.0,
+    "position_mm": 3.0,
+    "orientation": 0.02,
+    "box_px": 3.0,
+    "trajectory_mm": 3.0,
     "trajectory_samples": 3,
 }
-"""Largest accepted differences between two machines' robot episodes."""
+"""Largest accepted differences between two machines' robot episodes.
+
+Measured on robot-v1/test (216 episodes) between OpenBLAS's Haswell and Nehalem kernels:
+every episode's hash differs; the largest differences are 0.7 mm in a final object
+position, 0.0038 in a quaternion component (0.4 deg), 0.3 px in an amodal box and 0.55 mm
+between end-effector paths, with equal sample counts. The tolerances leave a margin of 3-10
+over that and stay far inside the robot's own success criterion (1.5 cm, 10 deg)."""
 
 TOLERANT_EXECUTORS: Final = ("robot",)
 """Executors whose episodes are compared within tolerances across machines."""
 
-TRAJECTORY_STRIDE: Final = 8
 SUMMARY_VERSION: Final = 1
 _MM: Final = 1e-4  # metres per unit of the stored positions (0.1 mm)
 _QUAT: Final = 1e-4
@@ -78,7 +88,7 @@ def tolerant_summary(episode: Episode) -> dict[str, Any] | None:
         "orientations": _ints(poses[..., 3:7], _QUAT),
         "boxes": _ints(r.targets.boxes_amodal, _PX),
         "samples": len(traj.time),
-        "ee": _ints(np.asarray(traj.ee_pose)[::TRAJECTORY_STRIDE, :3], _MM),
+        "ee": _ints(np.asarray(traj.ee_pose)[:, :3], _MM),
     }
 
 
@@ -92,7 +102,8 @@ def comparison_spec() -> dict[str, Any]:
                     "runs through BLAS/LAPACK kernels chosen by CPU; compared within "
                     "tolerances instead"),
             "tolerances": dict(ROBOT_TOLERANCES),
-            "trajectory_stride": TRAJECTORY_STRIDE,
+            "trajectory": ("every end-effector sample within trajectory_mm of the other "
+                           "path (polyline), within trajectory_samples samples in time"),
         },
     }
 
@@ -102,6 +113,28 @@ def _max_diff(a: list[int], b: list[int], unit: float) -> float:
         return 0.0
     d = np.abs(np.asarray(a, dtype=np.float64) - np.asarray(b, dtype=np.float64))
     return float(d.max()) * unit
+
+
+def _path_distance(a: NDArray[np.float64], b: NDArray[np.float64], window: int) -> float:
+    """Largest distance from a sample of path ``a`` to path ``b`` (the polyline through
+    its samples), looking only at ``b``'s segments within ``window`` samples of the same
+    index."""
+    n, m = len(a), len(b)
+    if n == 0 or m == 0:
+        return 0.0 if n == m else float("inf")
+    idx = np.arange(n)
+    best = np.full(n, np.inf)
+    for off in range(-window, window + 1):
+        j = np.clip(idx + off, 0, m - 1)
+        s0, s1 = b[j], b[np.minimum(j + 1, m - 1)]
+        v = s1 - s0
+        d = a - s0
+        vv = (v * v).sum(axis=1)
+        t = np.clip(np.where(vv > 0, (d * v).sum(axis=1) / np.where(vv > 0, vv, 1.0), 0.0),
+                    0.0, 1.0)
+        r = d - t[:, None] * v
+        best = np.minimum(best, np.sqrt((r * r).sum(axis=1)))
+    return float(best.max())
 
 
 def compare_summaries(
@@ -135,8 +168,10 @@ def compare_summaries(
     if ds > tol["trajectory_samples"]:
         out.append(f"the trajectory has {local['samples']} samples here, "
                    f"{committed['samples']} committed")
-    n = min(len(local["ee"]), len(committed["ee"])) // 3 * 3
-    d = _max_diff(local["ee"][:n], committed["ee"][:n], _MM) * 1000.0
+    pa = np.asarray(local["ee"], dtype=np.float64).reshape(-1, 3) * _MM
+    pb = np.asarray(committed["ee"], dtype=np.float64).reshape(-1, 3) * _MM
+    window = int(tol["trajectory_samples"])
+    d = 1000.0 * max(_path_distance(pa, pb, window), _path_distance(pb, pa, window))
     if d > tol["trajectory_mm"]:
         out.append(f"the end-effector path differs by {d:.2f} mm (> {tol['trajectory_mm']} mm)")
     return out
