@@ -68,13 +68,15 @@ def dispatch_versions() -> dict[str, str]:
 
 
 def lowest_dispatch_env() -> dict[str, str]:
-    """Environment variables that make a new process use numpy's baseline kernels only
-    and a pre-AVX OpenBLAS core: the other end from the default dispatch (for tests)."""
+    """Environment variables that make a new process use numpy's baseline kernels only,
+    a pre-AVX OpenBLAS core and OpenCV without its optional SIMD paths: the other end
+    from the default dispatch (for tests)."""
     try:
         _, dispatch, _ = _cpu_tables()
     except (ImportError, AttributeError):
         dispatch = []
-    env = {"OPENBLAS_CORETYPE": "Nehalem"}
+    env = {"OPENBLAS_CORETYPE": "Nehalem",
+           "OPENCV_CPU_DISABLE": "AVX512_SKX,AVX2,FMA3,AVX,POPCNT,SSE4_2,SSE4_1"}
     if dispatch:
         env["NPY_DISABLE_CPU_FEATURES"] = " ".join(dispatch)
     return env

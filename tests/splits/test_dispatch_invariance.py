@@ -2,7 +2,8 @@
 
 Two subprocesses generate a small mixed part, one with numpy's and OpenBLAS's default
 dispatch, one with every numpy dispatch target disabled (``NPY_DISABLE_CPU_FEATURES``, only
-the baseline left) and OpenBLAS forced to a pre-AVX core (``OPENBLAS_CORETYPE=Nehalem``):
+the baseline left), OpenBLAS forced to a pre-AVX core (``OPENBLAS_CORETYPE=Nehalem``) and
+OpenCV's optional SIMD paths off (``OPENCV_CPU_DISABLE``):
 teleport episodes (smoke-v1: 3-15 objects, 1-7 steps) must give equal root hashes, equal to
 the committed one; robot episodes (the first of robot-v1) must agree within the tolerances
 the manifest states. Runs on any x86-64 machine in about 30 s.
@@ -43,7 +44,7 @@ generate_part(load_split("robot-v1"), "test", out + "/robot", workers=1, limit=i
 def _generate(out: Path, extra_env: dict[str, str]) -> tuple[dict, dict]:
     env = {k: v for k, v in os.environ.items()
            if k not in ("NPY_DISABLE_CPU_FEATURES", "NPY_ENABLE_CPU_FEATURES",
-                        "OPENBLAS_CORETYPE")}
+                        "OPENBLAS_CORETYPE", "OPENCV_CPU_DISABLE")}
     env.update(extra_env)
     subprocess.run([sys.executable, "-c", _SCRIPT, str(out), str(ROBOT_EPISODES)],
                    env=env, check=True, timeout=300)

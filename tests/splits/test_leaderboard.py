@@ -65,7 +65,7 @@ def test_every_board_rebuilds_to_the_committed_bytes_under_any_dispatch(
     (BLAS kernels used to change the bootstrap bounds' last digits)."""
     entries = _entries(tmp_path, {"smoke-v1/test", "paper-v1/test"})
     env = {k: v for k, v in os.environ.items()
-           if k not in ("NPY_DISABLE_CPU_FEATURES", "OPENBLAS_CORETYPE")}
+           if k not in ("NPY_DISABLE_CPU_FEATURES", "OPENBLAS_CORETYPE", "OPENCV_CPU_DISABLE")}
     if dispatch == "lowest":
         if platform.machine().lower() not in {"x86_64", "amd64"}:
             pytest.skip("the lowest-dispatch settings are named for x86-64")
