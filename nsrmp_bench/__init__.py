@@ -17,6 +17,10 @@ def __getattr__(name: str) -> object:
         from nsrmp_bench.storage.reader import open as open_episodes
 
         return open_episodes
+    if name == "load_model":  # the learned models (torch extra)
+        import importlib
+
+        return importlib.import_module("nsrmp_bench.reference_model.registry").load_model
     if name == "score":
         from nsrmp_bench.scoring.scorer import score
 

@@ -34,6 +34,8 @@ VERBS: dict[str, str] = {
     "baseline": "write a non-learned baseline's predictions (oracle, noop, random)",
     "leaderboard": "rebuild the static leaderboards by scoring every committed entry",
     "replay": "carry out a predictions file with the simulated Panda; write the achieved boxes",
+    "train": "train a learned reference model (nsrm) on a split's train part",
+    "predict": "write a learned model's predictions file for a split part",
 }
 """Verb name -> one-line help. The module is ``nsrmp_bench.cli.<verb with _>``."""
 

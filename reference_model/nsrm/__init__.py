@@ -1,0 +1,142 @@
+"""NSRM, the neuro-symbolic reference model (``nsrm-v1``): train it, load it, predict.
+
+See ``MODEL_CARD.md`` beside this file for what it reads, how it is supervised and how it
+is trained.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.geometry.camera import Camera
+from nsrmp_bench.reference_model.checkpoints import load_checkpoint, save_checkpoint, write_card
+from nsrmp_bench.reference_model.encoded import Encoded, encode_inputs, encode_part
+from nsrmp_bench.reference_model.nsrm.config import NSRMConfig
+from nsrmp_bench.reference_model.nsrm.curriculum import build_stages
+from nsrmp_bench.reference_model.nsrm.inference import Inferred, infer
+from nsrmp_bench.reference_model.nsrm.loss import iou, world_to_boxes
+from nsrmp_bench.reference_model.nsrm.model import NSRM
+from nsrmp_bench.reference_model.predictions import model_predictions
+from nsrmp_bench.reference_model.tokens import Vocabulary
+from nsrmp_bench.reference_model.training import train_stages
+from nsrmp_bench.scoring.submission import Prediction
+
+__all__ = ["MODEL_ID", "NSRMPredictor", "train_nsrm", "val_iou_m"]
+
+MODEL_ID = "nsrm-v1"
+
+
+def val_iou_m(model: NSRM, enc: Encoded, split: bool = True) -> float:
+    """Mean IoU over the objects whose final box moved (IoU <= 0.9), for model selection.
+
+    The figures we report come from the public scorer on a predictions file; this is the
+    cheap in-loop number the progress bar shows and the best checkpoint is chosen by.
+    """
+    assert enc.final_boxes is not None
+    res = infer(model, enc, split=split)
+    scores = []
+    for i in range(len(enc)):
+        n = int(enc.object_mask[i].sum())
+        gold, init = enc.final_boxes[i, :n], enc.boxes[i, :n]
+        pred = world_to_boxes(res.worlds[i][-1], enc.image_size) if res.steps[i] else init
+        moved = iou(init, gold) <= 0.9
+        if moved.any():
+            scores.append(float(iou(pred, gold)[moved].mean()))
+    return sum(scores) / max(1, len(scores))
+
+
+def train_nsrm(data: Path, out: Path, *, seed: int = 0, config: NSRMConfig | None = None,
+               quiet: bool = False) -> Path:
+    """Train on ``data/train``, select on ``data/val``; returns ``out/best.pt``.
+
+    A split without a val part (attributes-v1) selects on the last tenth of its train part,
+    which is then not trained on.
+    """
+    cfg = config or NSRMConfig()
+    if not (data / "train" / "manifest.json").exists():
+        msg = (f"{data} has no finished part 'train' ({data / 'train'}); pass a split root "
+               "holding train/ (and val/), e.g. generate one with `nsrmp-bench generate "
+               "--split paper-v1 --out data/paper`")
+        raise InvalidArgument(msg)
+    torch.set_num_threads(cfg.threads)
+    torch.manual_seed(seed)
+    t0 = time.perf_counter()
+    train, vocab = encode_part(data / "train", targets=True)
+    if (data / "val" / "manifest.json").exists():
+        val, _ = encode_part(data / "val", vocab, targets=True)
+    else:
+        cut = len(train) - max(1, len(train) // 10)
+        train, val = train.select(range(cut)), train.select(range(cut, len(train)))
+    model = NSRM(len(vocab), cfg)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "config.json").write_text(json.dumps(cfg.to_dict(), indent=1) + "\n", "utf-8")
+    best = out / "best.pt"
+
+    def on_best() -> None:
+        save_checkpoint(best, MODEL_ID, cfg.to_dict(), vocab.to_list(), model.state_dict(),
+                        {"seed": seed, "data": str(data)})
+
+    state = train_stages(model, build_stages(model, train, cfg), out, seed=seed,
+                         validate=lambda stage: val_iou_m(model, val, stage.uses_splitter),
+                         on_best=on_best, quiet=quiet)
+    n_params = sum(p.numel() for p in model.parameters())
+    write_card(out / "card.json", model_card(len(train), state.seconds, n_params, state.best,
+                                             time.perf_counter() - t0, cfg, seed))
+    return best
+
+
+def model_card(n_train: int, train_seconds: float, n_params: int, best: float,
+               wall: float, cfg: NSRMConfig, seed: int) -> dict[str, Any]:
+    """The model card of a training run."""
+    return {
+        "model": MODEL_ID,
+        "training_data": f"{n_train} training episodes (train part); selection on val",
+        "train_seconds": round(train_seconds, 1), "wall_seconds": round(wall, 1),
+        "parameters": n_params, "best_val_iou_m": round(best, 4), "seed": seed,
+        "threads": cfg.threads,
+        "supervision": "initial and final boxes only (no gold program, no intermediate "
+                       "state, no template id, no lexed slots, no reference labels); the "
+                       "curriculum selects episodes by number of steps and relational flag",
+        "inputs": "instruction text, initial RGB, initial depth, initial (gold) boxes",
+        "config": cfg.to_dict(),
+    }
+
+
+class NSRMPredictor:
+    """A loaded NSRM: predicts from what ``EpisodeDataset`` gives as ``inputs`` only."""
+
+    model_id = MODEL_ID
+
+    def __init__(self, checkpoint: str | Path) -> None:
+        payload = load_checkpoint(checkpoint, MODEL_ID)
+        self.config = NSRMConfig.from_dict(payload["config"])
+        self.vocab = Vocabulary(tuple(payload["vocab"]))
+        self.model = NSRM(len(self.vocab), self.config)
+        self.model.load_state_dict(payload["state"])
+        self.model.eval()
+        self.checkpoint = Path(checkpoint)
+
+    def infer(self, items: Sequence[dict[str, Any]]) -> tuple[Encoded, Inferred]:
+        """Encode the items' inputs and run the model."""
+        torch.set_num_threads(self.config.threads)
+        enc = encode_inputs(items, self.vocab)
+        return enc, infer(self.model, enc)
+
+    def predict(self, items: Sequence[dict[str, Any]], camera: Camera) -> Iterator[Prediction]:
+        """Predictions for dataset items (``{"id", "inputs"}``), positions via ``camera``."""
+        enc, res = self.infer(items)
+        boxes, depths = [], []
+        for i, w in enumerate(res.worlds):
+            boxes.append(world_to_boxes(w, enc.image_size).double().numpy())
+            depths.append(w[..., 4].double().numpy())
+            del i
+        n = enc.object_mask.sum(1).tolist()
+        init = [enc.boxes[i, : n[i]].double().numpy() for i in range(len(enc))]
+        return model_predictions(enc.ids, init, res.steps, boxes, depths, camera)

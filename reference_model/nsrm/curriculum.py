@@ -1,0 +1,161 @@
+"""NSRM's curriculum, after the paper's three stages (``reference/nsrm-original-model.md``
+§1.10), with the steps that make it learn from scratch on a CPU:
+
+1. ``attribute``: single-step, attribute-only instructions; the relaxed program (role
+   probabilities as weights) trains everything end to end: parser, concepts, CNN and the
+   action simulator.
+2. ``relational``: single-step instructions, relational ones included, relaxed.
+3. ``reinforce``: single-step; discrete programs sampled from the parser, scored by their
+   box loss; the parser learns by REINFORCE with the mean loss of the samples as baseline
+   (the paper's), the executor from the loss of the samples weighted towards the best.
+4. ``splitter``: every instruction (1 and 2 steps); the expected loss over all split points
+   (each piece parsed and executed with the frozen argmax parser) trains the splitter.
+5. ``multistep``: every instruction, split by the splitter; REINFORCE over the pieces'
+   programs, so that later steps learn ``it``.
+
+Stages select their episodes by the split's categories (number of steps, relational):
+data selection, as in the paper; the model never reads them.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import Tensor, nn
+
+from nsrmp_bench.reference_model.encoded import Encoded
+from nsrmp_bench.reference_model.nsrm.config import NSRMConfig
+from nsrmp_bench.reference_model.nsrm.executor import StepParse
+from nsrmp_bench.reference_model.nsrm.inference import split_recursively
+from nsrmp_bench.reference_model.nsrm.loss import box_loss, identification_loss, simulator_loss
+from nsrmp_bench.reference_model.nsrm.model import (
+    NSRM,
+    Execution,
+    SceneTensors,
+    hard_roles,
+    piece_parses,
+    split_pieces,
+)
+from nsrmp_bench.reference_model.tokens import PAD
+from nsrmp_bench.reference_model.training import Stage
+
+__all__ = ["build_stages"]
+
+
+def _params(*mods: nn.Module) -> list[nn.Parameter]:
+    return [p for m in mods for p in m.parameters()]
+
+
+class _Steps:
+    def __init__(self, model: NSRM, data: Encoded, cfg: NSRMConfig) -> None:
+        self.model, self.data, self.cfg = model, data, cfg
+
+    def _batch(self, rows: Tensor) -> tuple[Encoded, SceneTensors, Tensor]:
+        b = self.data.select(rows)
+        assert b.final_boxes is not None
+        return b, self.model.scene(b), b.final_boxes
+
+    def _pieces(self, b: Encoded, split: bool) -> tuple[Tensor, Tensor]:
+        if not split:
+            return b.tokens[:, None, :], torch.ones((len(b), 1), dtype=torch.bool)
+        with torch.no_grad():
+            was = self.model.training
+            self.model.eval()
+            cuts = split_recursively(self.model, b.tokens, self.cfg.max_steps)
+            self.model.train(was)
+        return split_pieces(b.tokens, cuts)
+
+    def relaxed(self, rows: Tensor, split: bool = False) -> Tensor:
+        b, scene, gold = self._batch(rows)
+        pieces, pmask = self._pieces(b, split)
+        r, p, t = pieces.shape
+        _, parse = self.model.tag(pieces.reshape(r * p, t))
+        ex = self.model.execute(scene, piece_parses(parse, parse.pointers, r, p), pmask,
+                                hard=False)
+        return self._loss(b, ex, pmask, gold, torch.arange(r)).mean()
+
+    def _loss(self, b: Encoded, ex: Execution, pmask: Tensor, gold: Tensor,
+              rows: Tensor) -> Tensor:
+        mask = b.object_mask[rows]
+        loss = (box_loss(ex.world, gold[rows], mask, b.image_size)
+                + identification_loss(ex.subjects, ex.bases, pmask, b.boxes[rows], gold[rows],
+                                      mask))
+        if pmask.shape[1] == 1:
+            loss = loss + simulator_loss(self.model.simulator, b.geometry[rows],
+                                         ex.actions[:, 0], b.boxes[rows], gold[rows], mask,
+                                         b.image_size)
+        return loss
+
+    def reinforce(self, rows: Tensor, split: bool = False) -> Tensor:
+        b, scene, gold = self._batch(rows)
+        pieces, pmask = self._pieces(b, split)
+        r, p, t = pieces.shape
+        k = self.cfg.samples
+        ptr_logits, parse = self.model.tag(pieces.reshape(r * p, t))
+        logp_all = torch.log_softmax(ptr_logits, -1)  # (R*P, SLOTS, 1+T)
+        dist = torch.distributions.Categorical(logits=ptr_logits)
+        choice = torch.cat([ptr_logits.argmax(-1)[None], dist.sample((k - 1,))], 0)
+        onehot = nn.functional.one_hot(choice, ptr_logits.shape[-1]).float()  # (K, R*P, S, 1+T)
+        logp = logp_all[None].expand(k, -1, -1, -1).gather(-1, choice[..., None]).squeeze(-1)
+        logp = (logp.sum(-1) * pmask.reshape(1, r * p)).reshape(k, r, p).sum(-1)  # (K, R)
+        rows_k = torch.arange(r).repeat(k)
+        scene_k = scene.repeat(rows_k)
+        rep = StepParse(onehot.reshape(k * r * p, *onehot.shape[2:]),
+                        parse.attribute.repeat(k, 1, 1), parse.relation.repeat(k, 1, 1),
+                        parse.action.repeat(k, 1, 1))
+        ex = self.model.execute(scene_k, piece_parses(rep, rep.pointers, k * r, p),
+                                pmask.repeat(k, 1), hard=False)
+        losses = self._loss(b, ex, pmask.repeat(k, 1), gold, rows_k).reshape(k, r)
+        weight = torch.softmax(-losses.detach() / 0.5, dim=0)
+        executor_loss = (weight * losses).sum(0).mean()
+        advantage = (losses.mean(0, keepdim=True) - losses).detach()
+        policy = -(advantage * logp).mean()
+        entropy = (dist.entropy().sum(-1) * pmask.reshape(-1)).mean()
+        return executor_loss + policy - self.cfg.entropy * entropy
+
+    def splitter(self, rows: Tensor) -> Tensor:
+        b, scene, gold = self._batch(rows)
+        seqs = [row[row != PAD] for row in b.tokens]
+        options: list[tuple[int, int]] = []  # (row, logit index)
+        cuts: list[list[int]] = []
+        for i, s in enumerate(seqs):
+            options.append((i, 0))
+            cuts.append([])
+            for c in range(2, len(s) - 1):
+                options.append((i, 1 + c))
+                cuts.append([c])
+        idx = torch.tensor([o[0] for o in options])
+        with torch.no_grad():
+            was = self.model.training
+            self.model.eval()
+            pieces, pmask = split_pieces(b.tokens[idx], cuts)
+            r, p, t = pieces.shape
+            ptr, parse = self.model.tag(pieces.reshape(r * p, t))
+            ex = self.model.execute(scene.repeat(idx), piece_parses(parse, hard_roles(ptr), r, p),
+                                    pmask, hard=True)
+            losses = box_loss(ex.world, gold[idx], b.object_mask[idx], b.image_size)
+            self.model.train(was)
+        logits = self.model.splitter(b.tokens)
+        probs = torch.softmax(logits, -1)
+        chosen = probs[idx, torch.tensor([o[1] for o in options])]
+        return (chosen * losses).sum() / len(seqs)
+
+
+def build_stages(model: NSRM, data: Encoded, cfg: NSRMConfig) -> list[Stage]:
+    """The curriculum over the training episodes ``data`` (with targets and categories)."""
+    s = _Steps(model, data, cfg)
+    steps, rel = data.meta["steps"], data.meta["relational"]
+    single = torch.nonzero(steps == 1).flatten()
+    attribute = torch.nonzero((steps == 1) & ~rel).flatten()
+    every = torch.arange(len(data))
+    m = model
+    core = lambda: _params(m.visual, m.concepts, m.relations, m.simulator, m.tagger)  # noqa: E731
+    bs, lr = cfg.batch_size, cfg.lr
+    return [
+        Stage("attribute", cfg.epochs_attribute, attribute, core, s.relaxed, lr, bs),
+        Stage("relational", cfg.epochs_relational, single, core, s.relaxed, lr, bs),
+        Stage("reinforce", cfg.epochs_reinforce, single, core, s.reinforce, lr / 2, bs),
+        Stage("splitter", cfg.epochs_splitter, every, lambda: _params(m.splitter),
+              s.splitter, lr, bs, uses_splitter=True),
+        Stage("multistep", cfg.epochs_multistep, every, core,
+              lambda rows: s.reinforce(rows, split=True), lr / 2, bs, uses_splitter=True),
+    ]

