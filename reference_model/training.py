@@ -39,6 +39,7 @@ class Stage:
     lr: float
     batch_size: int
     uses_splitter: bool = False  # validate with the splitter (from its stage on)
+    start: Callable[[], None] | None = None  # called when the stage begins (or resumes)
 
 
 @dataclass
@@ -83,6 +84,8 @@ def train_stages(model: nn.Module, stages: Sequence[Stage], out: Path, *, seed: 
         for si, stage in enumerate(stages):
             if si < state.stage:
                 continue
+            if stage.start is not None:
+                stage.start()
             params = stage.parameters()
             for p in model.parameters():
                 p.requires_grad_(False)

@@ -5,10 +5,11 @@
    probabilities as weights) trains everything end to end: parser, concepts, CNN and the
    action simulator.
 2. ``relational``: single-step instructions, relational ones included, relaxed.
-3. ``reinforce``: single-step; discrete programs sampled from the parser, scored by their
+3. ``reinforce``: single-step; the CNN is frozen from here on (its features are computed
+   once); discrete programs sampled from the parser, scored by their
    box loss; the parser learns by REINFORCE with the mean loss of the samples as baseline
    (the paper's), the executor from the loss of the samples weighted towards the best.
-4. ``splitter``: every instruction (1 and 2 steps); the expected loss over all split points
+4. ``splitter``: a seeded subset of the instructions (1 and 2 steps); the expected loss over all split points
    (each piece parsed and executed with the frozen argmax parser) trains the splitter.
 5. ``multistep``: every instruction, split by the splitter; REINFORCE over the pieces'
    programs, so that later steps learn ``it``.
@@ -48,11 +49,28 @@ def _params(*mods: nn.Module) -> list[nn.Parameter]:
 class _Steps:
     def __init__(self, model: NSRM, data: Encoded, cfg: NSRMConfig) -> None:
         self.model, self.data, self.cfg = model, data, cfg
+        self.cache: Tensor | None = None
+
+    def freeze_visual(self) -> None:
+        """From here on the CNN is frozen: compute every training object's features once."""
+        was = self.model.training
+        self.model.eval()
+        parts = []
+        with torch.no_grad():
+            for lo in range(0, len(self.data), 256):
+                b = self.data.select(range(lo, min(lo + 256, len(self.data))))
+                f = self.model.features(b)
+                full = f.new_zeros((len(b), self.data.object_mask.shape[1], f.shape[-1]))
+                full[:, : f.shape[1]] = f
+                parts.append(full)
+        self.cache = torch.cat(parts)
+        self.model.train(was)
 
     def _batch(self, rows: Tensor) -> tuple[Encoded, SceneTensors, Tensor]:
         b = self.data.select(rows)
         assert b.final_boxes is not None
-        return b, self.model.scene(b), b.final_boxes
+        feats = None if self.cache is None else self.cache[rows, : b.object_mask.shape[1]]
+        return b, self.model.scene(b, feats), b.final_boxes
 
     def _pieces(self, b: Encoded, split: bool) -> tuple[Tensor, Tensor]:
         if not split:
@@ -147,15 +165,20 @@ def build_stages(model: NSRM, data: Encoded, cfg: NSRMConfig) -> list[Stage]:
     single = torch.nonzero(steps == 1).flatten()
     attribute = torch.nonzero((steps == 1) & ~rel).flatten()
     every = torch.arange(len(data))
+    gen = torch.Generator().manual_seed(len(data))
+    subset = every[torch.randperm(len(data), generator=gen)[: cfg.splitter_examples]]
     m = model
     core = lambda: _params(m.visual, m.concepts, m.relations, m.simulator, m.tagger)  # noqa: E731
+    rest = lambda: _params(m.concepts, m.relations, m.simulator, m.tagger)  # noqa: E731
     bs, lr = cfg.batch_size, cfg.lr
     return [
         Stage("attribute", cfg.epochs_attribute, attribute, core, s.relaxed, lr, bs),
         Stage("relational", cfg.epochs_relational, single, core, s.relaxed, lr, bs),
-        Stage("reinforce", cfg.epochs_reinforce, single, core, s.reinforce, lr / 2, bs),
-        Stage("splitter", cfg.epochs_splitter, every, lambda: _params(m.splitter),
-              s.splitter, lr, bs, uses_splitter=True),
-        Stage("multistep", cfg.epochs_multistep, every, core,
-              lambda rows: s.reinforce(rows, split=True), lr / 2, bs, uses_splitter=True),
+        Stage("reinforce", cfg.epochs_reinforce, single, rest, s.reinforce, lr / 2, bs,
+              start=s.freeze_visual),
+        Stage("splitter", cfg.epochs_splitter, subset, lambda: _params(m.splitter),
+              s.splitter, lr, bs, uses_splitter=True, start=s.freeze_visual),
+        Stage("multistep", cfg.epochs_multistep, every, rest,
+              lambda rows: s.reinforce(rows, split=True), lr / 2, bs, uses_splitter=True,
+              start=s.freeze_visual),
     ]

@@ -70,10 +70,18 @@ class NSRM(nn.Module):
         self.splitter = Splitter(vocab_size, cfg)
 
     # --- scene -----------------------------------------------------------------------
-    def scene(self, enc: Encoded) -> SceneTensors:
-        """Ground the concepts on the episodes' objects."""
+    def features(self, enc: Encoded) -> Tensor:
+        """Visual features (B, N, F) of the real objects (zeros for padding)."""
         b, n = enc.object_mask.shape
-        feats = self.visual(enc.crops.reshape(b * n, *enc.crops.shape[2:])).reshape(b, n, -1)
+        real = enc.object_mask.reshape(-1)
+        out = self.visual(enc.crops.reshape(b * n, *enc.crops.shape[2:])[real])
+        feats = out.new_zeros((b * n, out.shape[-1]))
+        feats[real] = out
+        return feats.reshape(b, n, -1)
+
+    def scene(self, enc: Encoded, feats: Tensor | None = None) -> SceneTensors:
+        """Ground the concepts on the episodes' objects (``feats``: cached features)."""
+        feats = self.features(enc) if feats is None else feats
         attr = F.logsigmoid(self.concepts(feats))
         rel = F.logsigmoid(self.relations(enc.geometry))
         return SceneTensors(attr, rel, enc.geometry, enc.object_mask)

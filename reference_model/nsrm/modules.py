@@ -100,9 +100,12 @@ class RelationScorer(nn.Module):
 class ActionSimulator(nn.Module):
     """(subject (R, 5), base (R, 5), action probs (R, 3)) -> subject's new location (R, 5).
 
-    The output is parametrised relative to its inputs: the new centre is the base's centre
-    plus an offset, the new size the subject's scaled, the new depth the base's plus an
-    offset; the network learns the offsets.
+    Locations are ``[cx, cy, w, h, d]`` (image-normalised centre and size, depth in
+    metres). The output starts from the DSL's action geometry, seen from the camera:
+    ``top`` puts the subject's centre above the base's (by half the base's height),
+    ``left``/``right`` beside it along image x (by the two half-widths and a gap), at the
+    base's depth and the subject's size; the network learns the corrections (perspective,
+    stacks, sizes). This prior also fixes which action index means which action.
     """
 
     def __init__(self, cfg: NSRMConfig) -> None:
@@ -114,11 +117,19 @@ class ActionSimulator(nn.Module):
         )
         nn.init.zeros_(self.net[-1].weight)
         nn.init.zeros_(self.net[-1].bias)
+        side = [0.0 if a == "top" else (-1.0 if a == "left" else 1.0) for a in ACTIONS]
+        self.register_buffer("side", torch.tensor(side), persistent=False)
+        self.register_buffer("top", torch.tensor([float(a == "top") for a in ACTIONS]),
+                             persistent=False)
 
     def forward(self, subject: Tensor, base: Tensor, action: Tensor) -> Tensor:
         x = torch.cat([subject * _SCALE, base * _SCALE, action], dim=-1)
         o = self.net(x)
-        centre = base[..., :2] + o[..., :2] * 0.1
+        side = (action * self.side).sum(-1, keepdim=True)
+        top = (action * self.top).sum(-1, keepdim=True)
+        prior_x = side * (subject[..., 2:3] + base[..., 2:3]) * 0.6
+        prior_y = -top * base[..., 3:4] * 0.5
+        centre = base[..., :2] + torch.cat([prior_x, prior_y], -1) + o[..., :2] * 0.1
         size = subject[..., 2:4] * torch.exp(o[..., 2:4].clamp(-2, 2) * 0.2)
         depth = base[..., 4:5] + o[..., 4:5] * 0.1
         return torch.cat([centre, size, depth], dim=-1)
