@@ -24,7 +24,7 @@ class NSRMConfig:
     epochs_attribute: int = 8
     epochs_relational: int = 20
     epochs_reinforce: int = 5
-    epochs_splitter: int = 2
+    epochs_splitter: int = 5
     epochs_multistep: int = 3
     splitter_examples: int = 1000  # the splitter stage's subset of the training episodes
     batch_size: int = 32

@@ -9,8 +9,11 @@
    once); discrete programs sampled from the parser, scored by their
    box loss; the parser learns by REINFORCE with the mean loss of the samples as baseline
    (the paper's), the executor from the loss of the samples weighted towards the best.
-4. ``splitter``: a seeded subset of the instructions (1 and 2 steps); the expected loss over all split points
-   (each piece parsed and executed with the frozen argmax parser) trains the splitter.
+4. ``splitter``: a seeded subset of the instructions (1 and 2 steps); every split point
+   (and "no split") is scored by its loss, each piece parsed and executed with the frozen
+   argmax parser, and the splitter learns the softmin of those losses (cross-entropy).
+   (The original's exact expected loss has vanishing gradients once the splitter settles
+   on "no split", which it does while the pieces still parse badly: measured here.)
 5. ``multistep``: every instruction, split by the splitter; REINFORCE over the pieces'
    programs, so that later steps learn ``it``.
 
@@ -152,10 +155,14 @@ class _Steps:
                                     pmask, hard=True)
             losses = box_loss(ex.world, gold[idx], b.object_mask[idx], b.image_size)
             self.model.train(was)
-        logits = self.model.splitter(b.tokens)
-        probs = torch.softmax(logits, -1)
-        chosen = probs[idx, torch.tensor([o[1] for o in options])]
-        return (chosen * losses).sum() / len(seqs)
+        logits = torch.log_softmax(self.model.splitter(b.tokens), -1)
+        chosen = logits[idx, torch.tensor([o[1] for o in options])]
+        # distil the softmin of the options' losses (per instruction) into the splitter
+        target = torch.zeros_like(losses)
+        for i in range(len(seqs)):
+            sel = idx == i
+            target[sel] = torch.softmax(-losses[sel] / 0.5, 0)
+        return -(target * chosen).sum() / len(seqs)
 
 
 def build_stages(model: NSRM, data: Encoded, cfg: NSRMConfig) -> list[Stage]:

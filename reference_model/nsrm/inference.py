@@ -1,4 +1,4 @@
-"""NSRM at inference: recursive argmax splitting, argmax pointers, hard ``unique``.
+"""NSRM at inference: recursive splitting, argmax pointers, hard ``unique``.
 
 Returns per episode the grounded program (action, subject, base per step) and the world
 after each step, from which the predictions writer makes boxes.
@@ -27,7 +27,8 @@ class Inferred:
 
 
 def split_recursively(model: NSRM, tokens: Tensor, max_steps: int) -> list[list[int]]:
-    """Cut positions per row: split each piece at the splitter's argmax until it says no."""
+    """Cut positions per row: split each piece at the splitter's argmax until it says "no
+    split" (or there are ``max_steps`` pieces)."""
     seqs = [row[row != PAD] for row in tokens]
     pieces: list[list[tuple[int, int]]] = [[(0, len(s))] for s in seqs]
     done: list[list[bool]] = [[False] for _ in seqs]
