@@ -27,14 +27,18 @@ def model_predictions(ids: Sequence[str], initial_boxes: Sequence[np.ndarray],
                       steps: Sequence[Sequence[tuple[int, int, int]]],
                       step_boxes: Sequence[np.ndarray], step_depths: Sequence[np.ndarray],
                       camera: Camera) -> Iterator[Prediction]:
-    """Predictions from per-episode steps and per-step boxes (S, N, 4) and depths (S, N)."""
+    """Predictions from per-episode steps and per-step boxes (S, N, 4) and depths (S, N).
+
+    Boxes are clipped to the camera's image (a predicted location may fall past its edge).
+    """
+    limit = np.array([camera.width, camera.height, camera.width, camera.height], float)
     for eid, init, prog, boxes, depth in zip(ids, initial_boxes, steps, step_boxes,
                                              step_depths, strict=True):
         init = np.asarray(init, dtype=np.float64)
         if len(prog) == 0:
             yield Prediction(id=eid, boxes=init, program=(), step_boxes=None)
             continue
-        boxes = np.asarray(boxes, dtype=np.float64)
+        boxes = np.clip(np.asarray(boxes, dtype=np.float64), 0.0, limit)
         grounded = tuple(GroundedStep(ACTIONS[a], int(s), int(r)) for a, s, r in prog)
         s0 = prog[0][1]
         centre = lambda b: ((b[0] + b[2]) / 2.0, (b[1] + b[3]) / 2.0)  # noqa: E731

@@ -128,11 +128,11 @@ def train_stages(model: nn.Module, stages: Sequence[Stage], out: Path, *, seed: 
                     record = {"stage": stage.name, "epoch": epoch + 1,
                               "loss": round(total / n_batches, 5), "val_iou_m": round(score, 5),
                               "best": improved, "seconds": round(state.seconds, 1)}
-                    log.write(json.dumps(record) + "\n")
-                    log.flush()
-                    bar.update(task, info=f"loss {total / n_batches:.3f}  val IoU-M {score:.3f}")
                     _save(ckpt, {"model": model.state_dict(), "optim": optim.state_dict(),
                                  "state": {**state.__dict__, "stage": si}})
+                    log.write(json.dumps(record) + "\n")  # after the checkpoint it records
+                    log.flush()
+                    bar.update(task, info=f"loss {total / n_batches:.3f}  val IoU-M {score:.3f}")
             state.stage, state.epoch = si + 1, 0
             _save(ckpt, {"model": model.state_dict(), "state": dict(state.__dict__)})
         if state.best == float("-inf"):  # no selecting stage ran: keep the last model

@@ -30,7 +30,7 @@ PARTS = {
     "language-v1/test": "language/test",
     "attributes-v1/test": "attributes/test",
 }
-SUMMARY = ("iou_m", "iou", "success", "program_exact", "action", "subject_all_steps",
+SUMMARY = ("iou_m", "iou", "success", "program_exact", "action_all_steps", "subject_all_steps",
            "predicate_all_steps", "subject_per_step", "identification", "placement")
 
 
@@ -96,15 +96,17 @@ def _print(split: str, res: dict[str, object], seconds: float) -> None:
     for k in SUMMARY:
         if k in summary:
             print(f"  {k:22s} {_fmt(summary[k])}")
-    table = res.get("paper_table")
-    if isinstance(table, dict):
-        print("  paper table (IoU / IoU-M):")
-        for row, vals in table.items():
-            print(f"    {row:12s} {vals.get('IoU', float('nan')):.3f} / "
-                  f"{vals.get('IoU-M', float('nan')):.3f}  (n={vals.get('n')})")
     cats = res.get("per_category")
     if isinstance(cats, list):
-        for cat in ("steps", "objects", "relational", "phrasing", "held_out"):
+        print("  paper table (IoU / IoU-M):")
+        for name, cat, group in (("single-step", "steps", "1"), ("double-step", "steps", "2"),
+                                 ("simple", "relational", "False"),
+                                 ("complex", "relational", "True")):
+            got = {r["metric"]: r for r in cats if r["category"] == cat and r["group"] == group}
+            if "iou" in got and "iou_m" in got:
+                print(f"    {name:12s} {got['iou']['value']:.3f} / {_fmt(got['iou_m'])}"
+                      f"  (n={got['iou']['n']})")
+        for cat in sorted({r["category"] for r in cats}):
             rows = [r for r in cats if r.get("category") == cat and r.get("metric") == "iou_m"]
             if rows:
                 print(f"  IoU-M by {cat}: " + ", ".join(

@@ -19,7 +19,7 @@ pytestmark = [pytest.mark.torch, pytest.mark.sim]
 TINY = [
     "--set", "epochs_attribute=0", "--set", "epochs_relational=25",
     "--set", "epochs_reinforce=0", "--set", "epochs_splitter=1",
-    "--set", "epochs_multistep=0", "--set", "batch_size=16",
+    "--set", "epochs_multistep=0", "--set", "batch_size=16", "--set", "splitter_examples=64",
 ]
 
 
@@ -31,7 +31,7 @@ def _score(pred: Path, data: Path, tmp: Path) -> dict[str, Any]:
 
 
 def _headline(scores: dict[str, Any], name: str) -> float:
-    return float(scores["overall"][name]["value"])
+    return float(scores["summary"][name]["value"])
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +51,8 @@ def test_tiny_training_learns(tiny_run: Path, tiny_paper: Path, tmp_path: Path) 
     assert main(["predict", "nsrm", "--data", str(train), "--out", str(pred),
                  "--checkpoint", str(tiny_run / "best.pt"), "--quiet"]) == 0
     assert main(["baseline", "noop", "--data", str(train), "--out", str(noop)]) == 0
-    assert main(["check-submission", str(pred), "--data", str(train)]) == 0
+    assert main(["check-submission", str(pred), "--split", "paper-v1/train", "--data",
+                 str(train)]) == 0
     ours = _headline(_score(pred, train, tmp_path), "iou_m")
     floor = _headline(_score(noop, train, tmp_path), "iou_m")
     assert ours > floor + 0.1 and ours > 3 * floor, (ours, floor)
@@ -73,16 +74,37 @@ def test_same_seed_same_checkpoint_bytes(tiny_paper: Path, tmp_path: Path) -> No
 
 
 def test_resume_after_interruption_continues(tiny_paper: Path, tmp_path: Path) -> None:
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
     out = tmp_path / "r"
-    first = ["--set", "epochs_attribute=1", "--set", "epochs_relational=1",
-             "--set", "epochs_reinforce=0", "--set", "epochs_splitter=0",
-             "--set", "epochs_multistep=0", "--quiet"]
-    assert main(["train", "nsrm", "--data", str(tiny_paper), "--out", str(out), *first]) == 0
-    n = len((out / "log.jsonl").read_text().splitlines())
-    more = [x.replace("epochs_splitter=0", "epochs_splitter=1") for x in first]
-    assert main(["train", "nsrm", "--data", str(tiny_paper), "--out", str(out), *more]) == 0
-    log = [json.loads(x) for x in (out / "log.jsonl").read_text().splitlines()]
-    assert len(log) == n + 1 and log[-1]["stage"] == "splitter"
+    cmd = ["train", "nsrm", "--data", str(tiny_paper), "--out", str(out), "--quiet",
+           "--set", "epochs_attribute=2", "--set", "epochs_relational=3",
+           "--set", "epochs_reinforce=0", "--set", "epochs_splitter=0",
+           "--set", "epochs_multistep=0"]
+    proc = subprocess.Popen([sys.executable, "-m", "nsrmp_bench.cli.main", *cmd],
+                            start_new_session=True)
+    log = out / "log.jsonl"
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and proc.poll() is None:
+        if log.exists() and log.read_text().count("\n") >= 1:
+            break
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGKILL)  # interrupted after its first epoch
+    proc.wait()
+    done_before = log.read_text().count("\n")
+    assert 1 <= done_before < 5
+    assert main(cmd) == 0  # the same command resumes
+    records = [json.loads(x) for x in log.read_text().splitlines()]
+    pairs = [(r["stage"], r["epoch"]) for r in records]
+    expected = [("attribute", 1), ("attribute", 2), ("relational", 1), ("relational", 2),
+                ("relational", 3)]
+    assert sorted(set(pairs), key=expected.index) == expected
+    assert len(pairs) <= len(expected) + 1  # at most the epoch being killed is redone
+    assert (out / "best.pt").exists()
 
 
 def test_checkpoint_round_trips(tiny_run: Path, tmp_path: Path) -> None:
@@ -95,7 +117,6 @@ def test_checkpoint_round_trips(tiny_run: Path, tmp_path: Path) -> None:
     again = load_model("nsrm", copy)
     a, b = model.model.state_dict(), again.model.state_dict()
     assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
-    assert copy.read_bytes() == (tiny_run / "best.pt").read_bytes() or True  # extra differs
     assert again.vocab == model.vocab and again.config == model.config
 
 
@@ -125,11 +146,12 @@ def test_model_never_reads_targets(tiny_run: Path, smoke_test: Path) -> None:
 def test_shipped_checkpoint_predicts_and_beats_noop(smoke_test: Path, tmp_path: Path) -> None:
     pred, noop = tmp_path / "nsrm.jsonl", tmp_path / "noop.jsonl"
     assert main(["predict", "nsrm", "--data", str(smoke_test), "--out", str(pred)]) == 0
-    assert main(["check-submission", str(pred), "--data", str(smoke_test)]) == 0
+    assert main(["check-submission", str(pred), "--split", "smoke-v1/test", "--data",
+                 str(smoke_test)]) == 0
     assert main(["baseline", "noop", "--data", str(smoke_test), "--out", str(noop)]) == 0
     ours = _headline(_score(pred, smoke_test, tmp_path), "iou_m")
     floor = _headline(_score(noop, smoke_test, tmp_path), "iou_m")
-    assert ours > floor + 0.2, (ours, floor)
+    assert ours > floor + 0.05 and ours > 5 * floor, (ours, floor)
     header = json.loads(pred.read_text().splitlines()[0])["header"]
     assert header["model"] == "nsrm-v1" and header["split"] == "smoke-v1/test"
 

@@ -102,7 +102,6 @@ def test_a_valid_file_scores(tmp_path: Path, gold: GoldTable) -> None:
         ([header_line(), good(pick=[1])], ["line 2", "'pick' must be a pixel location"]),
         ([header_line(), good(pick=[1, 999])], ["line 2", "pick", "outside"]),
         ([header_line(), good(positions=[[0, 0]] * 3)], ["line 2", "positions[0]"]),
-        ([header_line(), good(step_boxes=[FINAL, FINAL])], ["line 2", "2 lists", "1 steps"]),
         ([header_line(), good(step_boxes=[FINAL[:1]])], ["line 2", "step_boxes[0]", "has 1"]),
         ([header_line(), good("nope")], ["line 2", "'nope' is not an instance of", "remove"]),
     ],
@@ -247,3 +246,17 @@ def test_writing_a_non_finite_prediction_names_it(tmp_path: Path) -> None:
     assert not (tmp_path / "x.jsonl").exists() and not (tmp_path / "x.jsonl.tmp").exists()
     with pytest.raises(InvalidArgument, match="positions must hold numbers"):
         Prediction("e0", np.zeros((1, 4)), positions=[["a", 1, 2]]).to_record()  # type: ignore[arg-type]
+
+
+def test_step_boxes_for_another_step_count_are_ignored_and_counted(
+    tmp_path: Path, gold: GoldTable
+) -> None:
+    """A model that splits an instruction into more steps than the gold cannot be scored
+    step by step; its file still scores, those steps count as failures."""
+    p = write(tmp_path, [header_line(), good(step_boxes=[FINAL, FINAL]),
+                         good("e1", program=[["top", 1, 0], ["left", 2, 1]],
+                              step_boxes=[FINAL, FINAL])])
+    res = score(p, gold, n_boot=0)
+    assert res.counts["step_boxes_other_step_count"] == 1
+    assert res.counts["with_step_boxes"] == 1
+    assert res.value("iou_m") == pytest.approx(1.0)
