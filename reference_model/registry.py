@@ -6,14 +6,13 @@ listing the models needs no torch.
 
 from __future__ import annotations
 
-import difflib
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from nsrmp_bench.errors import UnknownId
+from nsrmp_bench.versioned_ids import resolve_id
 
 __all__ = ["MODELS", "ModelEntry", "get_model", "load_model"]
 
@@ -52,16 +51,7 @@ MODELS: dict[str, ModelEntry] = {
 
 def get_model(name: str) -> ModelEntry:
     """The model ``name``: an id, or a bare name meaning its latest version."""
-    if name in MODELS:
-        return MODELS[name]
-    versions = sorted((k for k in MODELS if k.rsplit("-v", 1)[0] == name), reverse=True)
-    if versions:
-        return MODELS[versions[0]]
-    names = [*MODELS, *(k.rsplit("-v", 1)[0] for k in MODELS)]
-    close = difflib.get_close_matches(name, names, n=1)
-    hint = f"; did you mean {close[0]!r}?" if close else ""
-    msg = f"unknown model {name!r}{hint} Known models: {', '.join(MODELS)}"
-    raise UnknownId(msg)
+    return MODELS[resolve_id(name, MODELS, "model")]
 
 
 def load_model(name: str, checkpoint: str | Path | None = None) -> Any:

@@ -7,7 +7,6 @@ which other instances are predicted or in what order.
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
@@ -19,8 +18,9 @@ from nsrmp_bench.baselines.noop import noop_prediction
 from nsrmp_bench.baselines.oracle import oracle_prediction
 from nsrmp_bench.baselines.random_steps import random_prediction
 from nsrmp_bench.episode import Episode, SymbolicEpisode
-from nsrmp_bench.errors import InvalidArgument, UnknownId
+from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.scoring.submission import Prediction, SubmissionHeader, write_submission
+from nsrmp_bench.versioned_ids import resolve_id
 
 __all__ = ["BASELINES", "Baseline", "get_baseline", "predict", "run_baseline"]
 
@@ -51,16 +51,7 @@ BASELINES: dict[str, Baseline] = {
 
 def get_baseline(name: str) -> Baseline:
     """The baseline ``name`` (an id, or a bare name meaning its latest version)."""
-    if name in BASELINES:
-        return BASELINES[name]
-    versions = sorted((k for k in BASELINES if k.rsplit("-v", 1)[0] == name), reverse=True)
-    if versions:
-        return BASELINES[versions[0]]
-    names = [*BASELINES, *(k.rsplit("-v", 1)[0] for k in BASELINES)]
-    close = difflib.get_close_matches(name, names, n=1)
-    hint = f"; did you mean {close[0]!r}?" if close else ""
-    msg = f"unknown baseline {name!r}{hint} Known baselines: {', '.join(BASELINES)}"
-    raise UnknownId(msg)
+    return BASELINES[resolve_id(name, BASELINES, "baseline")]
 
 
 def predict(
