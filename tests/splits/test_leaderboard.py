@@ -37,7 +37,8 @@ def test_smoke_board_rebuilds_to_the_committed_bytes(smoke_dir: Path, tmp_path: 
     root.mkdir()
     (root / "smoke-v1").symlink_to(smoke_dir, target_is_directory=True)
     boards = build(entries, root, tmp_path / "out")
-    assert [r["model"] for r in boards["smoke-v1/test"]] == ["oracle-v1", "random-v1", "noop-v1"]
+    assert [r["model"] for r in boards["smoke-v1/test"]] == [
+        "oracle-v1", "nsrm-v1", "random-v1", "noop-v1"]
     for suffix in (".json", ".md"):
         rebuilt = (tmp_path / "out" / f"smoke-v1-test{suffix}").read_text()
         assert rebuilt == (BOARDS / f"smoke-v1-test{suffix}").read_text()
