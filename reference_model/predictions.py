@@ -13,9 +13,9 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
-from torch import Tensor
 
 from nsrmp_bench.dsl.program import GroundedStep
+from nsrmp_bench.geometry.boxes import box_centres
 from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.scoring.submission import Prediction, SubmissionHeader, write_submission
 from nsrmp_bench.vocabulary import ACTIONS
@@ -41,13 +41,14 @@ def model_predictions(ids: Sequence[str], initial_boxes: Sequence[np.ndarray],
         boxes = np.clip(np.asarray(boxes, dtype=np.float64), 0.0, limit)
         grounded = tuple(GroundedStep(ACTIONS[a], int(s), int(r)) for a, s, r in prog)
         s0 = prog[0][1]
-        centre = lambda b: ((b[0] + b[2]) / 2.0, (b[1] + b[3]) / 2.0)  # noqa: E731
         final = boxes[-1]
-        uv = np.stack([(final[:, 0] + final[:, 2]) / 2, (final[:, 1] + final[:, 3]) / 2], -1)
-        positions = camera.backproject(uv, np.asarray(depth[-1], dtype=np.float64))
+        positions = camera.backproject(box_centres(final),
+                                       np.asarray(depth[-1], dtype=np.float64))
+        pick, place = box_centres(init[s0]), box_centres(boxes[0][s0])
         yield Prediction(
             id=eid, boxes=final, program=grounded, step_boxes=boxes,
-            pick=centre(init[s0]), place=centre(boxes[0][s0]), positions=positions,
+            pick=(float(pick[0]), float(pick[1])), place=(float(place[0]), float(place[1])),
+            positions=positions,
         )
 
 
@@ -58,7 +59,3 @@ def write_model_predictions(out: str | Path, split: str, model_id: str,
     header = SubmissionHeader(split=split, model=model_id, extra=dict(extra or {}))
     return write_submission(out, header, predictions)
 
-
-def to_numpy(t: Tensor) -> np.ndarray:
-    """A detached float64 copy."""
-    return t.detach().double().numpy()

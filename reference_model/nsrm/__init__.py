@@ -132,11 +132,8 @@ class NSRMPredictor:
     def predict(self, items: Sequence[dict[str, Any]], camera: Camera) -> Iterator[Prediction]:
         """Predictions for dataset items (``{"id", "inputs"}``), positions via ``camera``."""
         enc, res = self.infer(items)
-        boxes, depths = [], []
-        for i, w in enumerate(res.worlds):
-            boxes.append(world_to_boxes(w, enc.image_size).double().numpy())
-            depths.append(w[..., 4].double().numpy())
-            del i
+        boxes = [world_to_boxes(w, enc.image_size).double().numpy() for w in res.worlds]
+        depths = [w[..., 4].double().numpy() for w in res.worlds]
         n = enc.object_mask.sum(1).tolist()
         init = [enc.boxes[i, : n[i]].double().numpy() for i in range(len(enc))]
         return model_predictions(enc.ids, init, res.steps, boxes, depths, camera)

@@ -35,7 +35,7 @@ from nsrmp_bench.reference_model.nsrm.model import (
     NSRM,
     Execution,
     SceneTensors,
-    hard_roles,
+    hard_pointers,
     piece_parses,
     split_pieces,
 )
@@ -151,8 +151,8 @@ class _Steps:
             pieces, pmask = split_pieces(b.tokens[idx], cuts)
             r, p, t = pieces.shape
             ptr, parse = self.model.tag(pieces.reshape(r * p, t))
-            ex = self.model.execute(scene.repeat(idx), piece_parses(parse, hard_roles(ptr), r, p),
-                                    pmask, hard=True)
+            parses = piece_parses(parse, hard_pointers(ptr), r, p)
+            ex = self.model.execute(scene.repeat(idx), parses, pmask, hard=True)
             losses = box_loss(ex.world, gold[idx], b.object_mask[idx], b.image_size)
             self.model.train(was)
         logits = torch.log_softmax(self.model.splitter(b.tokens), -1)

@@ -12,7 +12,7 @@ import torch
 from torch import Tensor
 
 from nsrmp_bench.reference_model.encoded import Encoded
-from nsrmp_bench.reference_model.nsrm.model import NSRM, hard_roles, piece_parses, split_pieces
+from nsrmp_bench.reference_model.nsrm.model import NSRM, hard_pointers, piece_parses, split_pieces
 from nsrmp_bench.reference_model.tokens import PAD
 
 __all__ = ["Inferred", "infer", "split_recursively"]
@@ -70,7 +70,7 @@ def infer(model: NSRM, enc: Encoded, batch_size: int = 128, split: bool = True) 
         pieces, pmask = split_pieces(b.tokens, cuts)
         r, p, t = pieces.shape
         ptr, parse = model.tag(pieces.reshape(r * p, t))
-        parses = piece_parses(parse, hard_roles(ptr), r, p)
+        parses = piece_parses(parse, hard_pointers(ptr), r, p)
         ex = model.execute(model.scene(b), parses, pmask, hard=True)
         n_obj = b.object_mask.sum(1).tolist()
         for i in range(r):

@@ -12,7 +12,7 @@ from __future__ import annotations
 import torch
 from torch import Tensor
 
-__all__ = ["box_loss", "world_to_boxes"]
+__all__ = ["box_loss", "identification_loss", "mover_and_base", "simulator_loss", "world_to_boxes"]
 
 
 def world_to_boxes(world: Tensor, image_size: tuple[int, int]) -> Tensor:
@@ -35,10 +35,12 @@ def iou(a: Tensor, b: Tensor) -> Tensor:
 def box_loss(world: Tensor, final_boxes: Tensor, mask: Tensor,
              image_size: tuple[int, int]) -> Tensor:
     """Loss per row (R,) of worlds (R, N, 5) against gold final boxes (R, N, 4)."""
-    pred = world_to_boxes(world, image_size)
-    per = (pred - final_boxes).abs().sum(-1) / 40.0 + (1.0 - iou(pred, final_boxes))
-    return (per * mask).sum(-1)
+    return (_per_object(world_to_boxes(world, image_size), final_boxes) * mask).sum(-1)
 
+
+def _per_object(pred: Tensor, gold: Tensor) -> Tensor:
+    """L1 of the pixel corners in units of 40 px, plus ``1 - IoU``, per box (...)."""
+    return (pred - gold).abs().sum(-1) / 40.0 + (1.0 - iou(pred, gold))
 
 
 def mover_and_base(initial_boxes: Tensor, final_boxes: Tensor, mask: Tensor
@@ -66,10 +68,7 @@ def simulator_loss(sim: torch.nn.Module, geometry: Tensor, action: Tensor,
     _, mover, base, single = mover_and_base(initial_boxes, final_boxes, mask)
     r = torch.arange(len(geometry))
     new = sim(geometry[r, mover], geometry[r, base], action)
-    pred = world_to_boxes(new, image_size)
-    gold = final_boxes[r, mover]
-    per = (pred - gold).abs().sum(-1) / 40.0 + (1.0 - iou(pred, gold))
-    return per * single
+    return _per_object(world_to_boxes(new, image_size), final_boxes[r, mover]) * single
 
 
 def identification_loss(subjects: Tensor, bases: Tensor, piece_mask: Tensor,
@@ -85,25 +84,8 @@ def identification_loss(subjects: Tensor, bases: Tensor, piece_mask: Tensor,
     state); they give the visual concepts a direct signal before the action simulator
     has learnt where things go. ``subjects``, ``bases``: (R, P, N).
     """
-    moved = (iou(initial_boxes, final_boxes) <= 0.9) & mask
-    has = moved.any(-1)
+    moved, _, target, single = mover_and_base(initial_boxes, final_boxes, mask)
     mass = (subjects * moved[:, None, :]).sum(-1).clamp(min=1e-6)
-    subj = -(torch.log(mass) * piece_mask).sum(-1) * has
-    single = (moved.sum(-1) == 1) & (piece_mask.sum(-1) == 1)
-    centre = (final_boxes[..., :2] + final_boxes[..., 2:]) / 2
-    mover = moved.float().argmax(-1)
-    mc = centre[torch.arange(len(centre)), mover]
-    dist = (centre - mc[:, None, :]).norm(dim=-1)
-    dist = dist.masked_fill(~mask | moved, 1e9)
-    target = dist.argmin(-1)
+    subj = -(torch.log(mass) * piece_mask).sum(-1) * moved.any(-1)
     bmass = bases[:, 0].gather(1, target[:, None]).squeeze(1).clamp(min=1e-6)
-    base = -torch.log(bmass) * single
-    return subj + base
-
-def stay_loss(subjects: Tensor, piece_mask: Tensor, initial_boxes: Tensor,
-              final_boxes: Tensor, mask: Tensor) -> Tensor:
-    """Per row (R,): the probability mass of every step's subject on objects whose final
-    box is their initial one (IoU > 0.9): moving an object that ends where it started is
-    wrong whatever the action simulator predicts. ``subjects`` (R, P, N)."""
-    unmoved = (iou(initial_boxes, final_boxes) > 0.9) & mask
-    return (subjects * unmoved[:, None, :] * piece_mask[..., None]).sum((1, 2))
+    return subj - torch.log(bmass) * (single & (piece_mask.sum(-1) == 1))

@@ -27,7 +27,7 @@ from nsrmp_bench.reference_model.nsrm.modules import (
 )
 from nsrmp_bench.reference_model.tokens import PAD
 
-__all__ = ["NSRM", "Execution", "SceneTensors", "hard_roles", "piece_parses", "split_pieces"]
+__all__ = ["NSRM", "Execution", "SceneTensors", "hard_pointers", "piece_parses", "split_pieces"]
 
 
 @dataclass
@@ -140,7 +140,7 @@ def split_pieces(tokens: Tensor, cuts: list[list[int]]) -> tuple[Tensor, Tensor]
     return out, mask
 
 
-def hard_roles(pointer_logits: Tensor) -> Tensor:
+def hard_pointers(pointer_logits: Tensor) -> Tensor:
     """One-hot argmax pointers (R, SLOTS, 1 + T)."""
     return F.one_hot(pointer_logits.argmax(-1), pointer_logits.shape[-1]).float()
 
