@@ -137,7 +137,7 @@ def physics_fingerprint() -> str:
         from nsrmp_bench.generators.world.world import World
         from nsrmp_bench.storage.hashing import episode_hash
 
-        spec = load_split("smoke-v1")
+        spec = load_split("smoke-v2")
         with World() as world:
             _FINGERPRINT = episode_hash(make_episode(spec, "test", 1, world))[:16]
     return _FINGERPRINT

@@ -53,12 +53,12 @@ class Entry:
         except (OSError, ValueError, KeyError, TypeError) as exc:
             msg = (
                 f"leaderboard entry {path} is unreadable or lacks a key ({exc}); an entry "
-                "needs 'model', 'split' (e.g. paper-v1/test) and 'predictions' (a path "
+                "needs 'model', 'split' (e.g. paper-v2/test) and 'predictions' (a path "
                 "relative to the entry file)"
             )
             raise InvalidArgument(msg) from exc
         if "/" not in entry.split:
-            msg = f"{path}: split {entry.split!r} must name a part, e.g. 'paper-v1/test'"
+            msg = f"{path}: split {entry.split!r} must name a part, e.g. 'paper-v2/test'"
             raise InvalidArgument(msg)
         if not entry.predictions.is_file():
             msg = f"{path}: predictions file {entry.predictions} does not exist"

@@ -29,12 +29,13 @@ __all__ = [
     "Stratum",
     "list_splits",
     "load_split",
+    "withdrawal",
 ]
 
 SPLIT_ID_RE = re.compile(r"^(?P<name>[a-z][a-z0-9]*)-v(?P<version>[0-9]+)$")
 OFFICIAL_SPLITS = (
-    "smoke-v1", "paper-v1", "objects-v1", "steps-v1", "attributes-v1", "language-v1",
-    "robot-v1",
+    "smoke-v2", "paper-v2", "objects-v2", "steps-v2", "attributes-v2", "language-v2",
+    "robot-v2",
 )
 """The official benchmark set."""
 
@@ -102,7 +103,7 @@ class PartSpec:
 
 @dataclass(frozen=True)
 class SplitSpec:
-    """A split: its parts, how it differs from paper-v1, and how it is realised."""
+    """A split: its parts, how it differs from paper-v2, and how it is realised."""
 
     id: str
     description: str
@@ -138,7 +139,7 @@ class SplitSpec:
         )
 
     def episode_id(self, part: str, index: int) -> str:
-        """The id of instance ``index`` of ``part``, e.g. ``paper-v1-train-000042``."""
+        """The id of instance ``index`` of ``part``, e.g. ``paper-v2-train-000042``."""
         return f"{self.id}-{part}-{index:06d}"
 
     def to_dict(self) -> dict[str, Any]:
@@ -152,11 +153,12 @@ def _read_text(split_id: str) -> str | None:
 
 
 @cache
-def list_splits() -> tuple[str, ...]:
-    """Every split id shipped with the package."""
+def list_splits(*, withdrawn: bool = False) -> tuple[str, ...]:
+    """Every split id shipped with the package; the withdrawn ones only when asked."""
     root = resources.files("nsrmp_bench.splits")
     ids = [p.name[:-5] for p in root.iterdir() if p.name.endswith(".json")]
-    return tuple(sorted(i for i in ids if SPLIT_ID_RE.match(i)))
+    return tuple(sorted(i for i in ids if SPLIT_ID_RE.match(i)
+                        and withdrawn == ("withdrawn" in _raw(i))))
 
 
 def _unknown(split_id: str) -> UnknownId:
@@ -181,11 +183,26 @@ def _raw(split_id: str) -> dict[str, Any]:
     return data
 
 
+def withdrawal(split_id: str) -> dict[str, str] | None:
+    """``{"use": successor, "why": reason}`` when ``split_id`` was withdrawn; None when it
+    is current or unknown."""
+    try:
+        gone = _raw(split_id).get("withdrawn")
+    except UnknownId:
+        return None
+    return None if gone is None else {"use": str(gone["use"]), "why": str(gone["why"])}
+
+
 @cache
 def load_split(split_id: str) -> SplitSpec:
     """The spec of ``split_id`` (``name-vN``); UnknownId with suggestions if absent."""
     data = _raw(split_id)
     where = f"splits/{split_id}.json"
+    gone = withdrawal(split_id)
+    if gone is not None:
+        msg = (f"split {split_id!r} was withdrawn: {gone['why']}. Use {gone['use']!r} "
+               f"(the same spec, reproducible bytes)")
+        raise UnknownId(msg)
     if data.get("id") != split_id:
         msg = f"{where}: its 'id' is {data.get('id')!r}; it must equal the file name"
         raise InvalidArgument(msg)

@@ -23,6 +23,7 @@ from nsrmp_bench.canonical import sha256_file
 from nsrmp_bench.dispatch import DISPATCH_KEYS
 from nsrmp_bench.errors import DataIntegrityError, NSRMPError
 from nsrmp_bench.official_manifests import official_manifest
+from nsrmp_bench.split_specs import withdrawal
 from nsrmp_bench.storage.hashing import episode_hash, root_hash
 from nsrmp_bench.storage.manifest import read_manifest
 from nsrmp_bench.storage.reader import read_episode
@@ -53,6 +54,12 @@ class VerifyReport:
         return not self.problems
 
 
+def _withdrawn_note(split_id: str) -> str:
+    """`` (split X was withdrawn: why; use Y)`` for a withdrawn split, else ``""``."""
+    gone = withdrawal(split_id)
+    return "" if gone is None else f" (split {split_id!r} was withdrawn; use {gone['use']!r})"
+
+
 def _explain(local: dict[str, Any], committed: dict[str, Any], *, files_ok: bool) -> list[str]:
     """The likely causes of a difference from the committed manifest, most specific first."""
     lines: list[str] = []
@@ -80,7 +87,9 @@ def _explain(local: dict[str, Any], committed: dict[str, Any], *, files_ok: bool
     if kernels:
         return [f"{cause}: its CPU-dependent kernels differ ({'; '.join(kernels)}){report}"]
     return [f"{cause}, although the recorded CPU-dependent kernels agree ({here}): a "
-            f"library below numpy (libm, PyBullet) picked another code path{report}"]
+            f"library below numpy (libm, PyBullet) picked another code path, or simulator "
+            f"state carried over from one instance to the next (how the withdrawn v1 "
+            f"splits differed){report}"]
 
 
 @dataclass(frozen=True)
@@ -173,7 +182,8 @@ def verify(data_dir: str | os.PathLike[str], *, deep: bool = True) -> VerifyRepo
     split_id, _, part = manifest.split.partition("/")
     committed = official_manifest(split_id, part) if part else None
     if committed is None:
-        report.notes.append(f"no committed manifest for {manifest.split}: checked locally only")
+        report.notes.append(f"no committed manifest for {manifest.split}: checked locally only"
+                            + _withdrawn_note(split_id))
         return report
     report.committed_root_hash = str(committed["root_hash"])
     if report.committed_root_hash == report.root_hash:

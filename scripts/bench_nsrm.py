@@ -24,11 +24,11 @@ import time
 from pathlib import Path
 
 PARTS = {
-    "paper-v1/test": "paper/test",
-    "objects-v1/test": "objects/test",
-    "steps-v1/test": "steps/test",
-    "language-v1/test": "language/test",
-    "attributes-v1/test": "attributes/test",
+    "paper-v2/test": "paper/test",
+    "objects-v2/test": "objects/test",
+    "steps-v2/test": "steps/test",
+    "language-v2/test": "language/test",
+    "attributes-v2/test": "attributes/test",
 }
 SUMMARY = ("iou_m", "iou", "success", "program_exact", "action_all_steps", "subject_all_steps",
            "predicate_all_steps", "subject_per_step", "identification", "placement")

@@ -22,7 +22,7 @@ def rate(config: EpisodeConfig, n: int) -> float:
 
 
 def needed_fraction(n: int) -> tuple[float, float, int]:
-    """Among relational references (paper-v1-like episodes, relational='any'), the share
+    """Among relational references (paper-v2-like episodes, relational='any'), the share
     whose object attributes alone were ambiguous; and the share of episodes with one."""
     refs = needed = episodes_with = 0
     for objects in (3, 4, 5):

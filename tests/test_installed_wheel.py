@@ -25,7 +25,7 @@ from nsrmp_bench.generators.templates import load_language
 from nsrmp_bench.scoring.submission import load_schema
 for sid in OFFICIAL_SPLITS:
     load_split(sid)
-assert official_manifest("paper-v1", "test")["root_hash"]
+assert official_manifest("paper-v2", "test")["root_hash"]
 assert load_signatures()["operations"]
 assert load_language().counts()["step_templates"] >= 30
 assert load_schema()
@@ -41,8 +41,8 @@ def test_wheel_runs_outside_the_repo(tmp_path: Path) -> None:
     )
     (wheel,) = wheels.glob("nsrmp_bench-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
-    for needed in ("nsrmp_bench/dsl/signatures.json", "nsrmp_bench/splits/paper-v1.json",
-                   "nsrmp_bench/splits/manifests/paper-v1-test.json",
+    for needed in ("nsrmp_bench/dsl/signatures.json", "nsrmp_bench/splits/paper-v2.json",
+                   "nsrmp_bench/splits/manifests/paper-v2-test.json",
                    "nsrmp_bench/generators/templates/steps.json",
                    "nsrmp_bench/scoring/submission.schema.json", "nsrmp_bench/py.typed"):
         assert needed in names, f"{needed} is not packaged"

@@ -5,8 +5,9 @@ Modules (import them by name; this package imports nothing heavy on its own):
 * :mod:`.assets`: the procedural objects (5 cm cube, 5 cm dice with a generated pip
   atlas, 2x2 lego brick as box + 4 cylinders with exactly ``EXTENTS["lego"]``) and the
   "lean" Panda URDF written at runtime from pybullet_data's own text;
-* :mod:`.world`: :class:`~.world.World`, one DIRECT client per process with the table,
-  the Panda and a fixed pool of object bodies; settling; TinyRenderer renders;
+* :mod:`.world`: :class:`~.world.World`, one DIRECT client per process, reset before
+  every instance and rebuilt with the table, the Panda and the instance's objects;
+  settling; TinyRenderer renders;
 * :mod:`.targets`: amodal and visible boxes, visible fractions, centre depths;
 * :mod:`.realise`: :func:`~.realise.realise`, teleport-and-settle execution of a
   symbolic episode with typed rejections (:class:`~.realise.PhysicsRejection`);
@@ -45,10 +46,11 @@ lean Panda + 15 objects, no table              7          52
   renders with a projection shifted by half a pixel
   (``Camera.projection_matrix_gl_pixel_centred``), after which rendered masks and projected
   silhouettes coincide (IoU 0.9998).
-* **Determinism**: objects are multibodies, pool bodies are taken out of and put back
-  into the collision world in a fixed order before every instance, scenery and robot
-  never form contact pairs among themselves, pairs are processed in sorted order; a test
-  realises episodes in shuffled orders and in a subprocess and compares every byte.
+* **Determinism**: every instance starts from a reset simulation (Bullet keeps history
+  in its broadphase that taking bodies out and back in does not clear: issue 18, the
+  withdrawn v1 splits); objects are multibodies, scenery and robot never form contact
+  pairs among themselves, pairs are processed in sorted order; tests realise episodes
+  after other episodes, in shuffled orders and in a subprocess and compare every byte.
 * **Settling** runs with 30 solver iterations (the world default, 50, is for grasping):
   28% less physics CPU, same rejections, drifts below 0.14 mm.
 """

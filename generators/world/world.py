@@ -1,24 +1,26 @@
-"""The PyBullet world: one DIRECT client per process, a table, a Franka Panda, object pool.
+"""The PyBullet world: one DIRECT client per process, a table, a Franka Panda, the objects.
 
-A :class:`World` loads its static bodies once (table, Panda) and creates a fixed pool of
-object bodies, ``pool_per_shape`` of each shape, in a fixed order. An instance takes
-bodies from the pool (the k-th object of a shape in scene order gets that shape's k-th
-body), recolours them and places them; unused bodies are parked far below the floor
-with their collisions switched off. Nothing is loaded or created per instance, so the
-body count stays constant.
+A :class:`World` is built once per process and reused for every instance, but every
+instance starts from a freshly reset simulation: :meth:`World.begin` resets the client
+(``resetSimulation``), reloads the table and the Panda and creates one body per object of
+the scene, in scene order. Nothing of an earlier instance survives into the next.
 
-Determinism (same inputs give the same bytes whatever the process did before; a test
-realises episodes in shuffled orders and in subprocesses and compares them):
+Determinism (same inputs give the same bytes whatever the process did before; tests
+realise episodes after other episodes, in shuffled orders and in subprocesses, and
+compare them):
 
+* Bullet keeps history in state no call clears: the broadphase's trees, its pair-cleanup
+  cursor and the order of its pair cache and contact manifolds. Taking bodies out of the
+  collision world and putting them back (the v1 world) left that state behind, and an
+  episode realised after another one differed in its last bits from the same episode
+  realised first (objects-v1/test 000643 after 000642; issue 18). The reset costs
+  ~30 ms per instance (``scripts/bench_generate.py``); it is the price of a split that
+  is the same bytes whatever the shard size, worker count or order of generation;
 * objects are reduced-coordinate multibodies, like the table and the robot, so all
-  contacts go through one solver path (maximal-coordinate bodies mixed with multibodies
-  were measured to leak history into the results);
-* before every instance :meth:`World.begin` resets the Panda and takes every pool body
-  out of the collision world and puts it back in the fixed pool order, which drops the
-  overlapping pairs and contact manifolds left by earlier instances;
+  contacts go through one solver path;
 * collision groups keep the scenery and the robot from forming pairs with each other
   (see ``GROUP_*``): the arm sways a little under its motors, and pairs appearing and
-  vanishing there reordered the solver's contact list between instances;
+  vanishing there would reorder the solver's contact list;
 * overlapping pairs are processed in sorted order (``deterministicOverlappingPairs``),
   the solver runs its full iteration count and sleeping is disabled.
 """
@@ -49,7 +51,7 @@ from nsrmp_bench.generators.world.assets import (
 from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.geometry.default_camera import OFFICIAL_CAMERA
 from nsrmp_bench.scene import Pose, SceneObject
-from nsrmp_bench.vocabulary import COLOUR_RGBA, SHAPES, TABLE_TOP_Z
+from nsrmp_bench.vocabulary import COLOUR_RGBA, TABLE_TOP_Z
 
 __all__ = [
     "GROUP_OBJECT",
@@ -104,7 +106,6 @@ class WorldConfig:
     solver_iterations: int = 50
     solver_residual_threshold: float = 0.0
     settle_solver_iterations: int = 30
-    pool_per_shape: int = 15
     background: tuple[int, int, int] = (206, 214, 222)
     light_direction: tuple[float, float, float] = (0.4, -0.6, 1.0)
     shadow: bool = False
@@ -112,9 +113,6 @@ class WorldConfig:
     def __post_init__(self) -> None:
         if self.panda not in ("lean", "stock", "none"):
             msg = f"WorldConfig.panda must be 'lean', 'stock' or 'none', got {self.panda!r}"
-            raise InvalidArgument(msg)
-        if self.pool_per_shape < 1:
-            msg = f"WorldConfig.pool_per_shape must be >= 1, got {self.pool_per_shape}"
             raise InvalidArgument(msg)
 
     def to_dict(self) -> dict[str, Any]:
@@ -125,7 +123,6 @@ class WorldConfig:
             "time_step": self.time_step,
             "solver_iterations": self.solver_iterations,
             "settle_solver_iterations": self.settle_solver_iterations,
-            "pool_per_shape": self.pool_per_shape,
             "background": list(self.background),
             "light_direction": list(self.light_direction),
             "shadow": self.shadow,
@@ -163,10 +160,11 @@ def _gl_matrices(camera: Camera) -> tuple[list[float], list[float]]:
 
 
 class World:
-    """A PyBullet DIRECT client with the table, the Panda and a pool of object bodies.
+    """A PyBullet DIRECT client with the table, the Panda and the objects of an instance.
 
-    Build one per process and reuse it for every instance (construction loads URDFs;
-    instances never do). Use as a context manager or call :meth:`close`.
+    Build one per process and reuse it for every instance; :meth:`begin` resets the
+    simulation and builds the instance's scene from nothing. Use as a context manager or
+    call :meth:`close`.
     """
 
     def __init__(
@@ -183,13 +181,35 @@ class World:
         self.config = WorldConfig() if config is None else config
         self._data_path = pybullet_data.getDataPath()
         self._assets = asset_cache_dir(cache_dir)
+        self._texture_files = ensure_dice_textures(self._assets)
+        self._panda_urdf = (str(lean_panda_urdf(self._assets, self._data_path))
+                            if self.config.panda == "lean" else "franka_panda/panda.urdf")
         pb = self.pb
         self.client: int = pb.connect(pb.DIRECT)
         if self.client < 0:
             msg = "PyBullet could not start a DIRECT client"
             raise RuntimeError(msg)
         self._closed = False
-        c = self.client
+        self.plane: int | None = None
+        self.table: int = -1
+        self.panda: int | None = None
+        self._panda_arm: list[int] = []
+        self._panda_fingers: list[int] = []
+        self.bodies: tuple[int, ...] = ()  # bodies of the current instance, in scene order
+        self.objects: tuple[SceneObject, ...] = ()
+        self._seg_lut = np.full(1, -1, dtype=np.int16)
+        self._scenery: tuple[tuple[int, int, tuple[float, ...]], ...] = ()
+        self._fills: dict[tuple[int, int], NDArray[np.uint8]] = {}
+        # Renders of the empty scene per camera. Every build is the same, so they stay
+        # valid from one instance to the next (render(composite=True)).
+        self._scenery_cache: dict[Camera, RenderedImages] = {}
+        self.begin(())
+
+    # -- construction ------------------------------------------------------------------
+    def _build_scenery(self) -> None:
+        """Reset the simulation and load the floor, the table and the Panda."""
+        pb, c = self.pb, self.client
+        pb.resetSimulation(physicsClientId=c)
         pb.setAdditionalSearchPath(self._data_path, physicsClientId=c)
         pb.setGravity(0.0, 0.0, -9.81, physicsClientId=c)
         pb.setPhysicsEngineParameter(
@@ -200,78 +220,33 @@ class World:
             solverResidualThreshold=self.config.solver_residual_threshold,
             physicsClientId=c,
         )
-        self.plane: int | None = None
+        self.plane = None
         if self.config.floor:
             self.plane = pb.loadURDF("plane.urdf", [0.0, 0.0, 0.0], useFixedBase=True,
                                      physicsClientId=c)
-        self.table: int = pb.loadURDF("table/table.urdf", [0.0, 0.0, 0.0], useFixedBase=True,
-                                      physicsClientId=c)
+        self.table = pb.loadURDF("table/table.urdf", [0.0, 0.0, 0.0], useFixedBase=True,
+                                 physicsClientId=c)
         for static in (self.plane, self.table):
             if static is not None:
                 pb.setCollisionFilterGroupMask(static, -1, GROUP_SCENERY, GROUP_OBJECT,
                                                physicsClientId=c)
-        self.panda: int | None = None
-        self._panda_arm: list[int] = []
-        self._panda_fingers: list[int] = []
+        self.panda = None
+        self._panda_arm = []
+        self._panda_fingers = []
         if self.config.panda != "none":
             self._load_panda()
-        self._textures = {
-            colour: int(pb.loadTexture(str(path), physicsClientId=c))
-            for colour, path in ensure_dice_textures(self._assets).items()
-        }
-        self._shapes: dict[str, ShapeIds] = {s: create_shape_ids(pb, c, s) for s in SHAPES}
-        self.pool: dict[str, list[int]] = {s: [] for s in SHAPES}
-        self._park: dict[int, tuple[float, float, float]] = {}
-        slot = 0
-        for shape in SHAPES:
-            for _ in range(self.config.pool_per_shape):
-                park = (_PARK_ORIGIN[0] + _PARK_SPACING * slot, _PARK_ORIGIN[1], _PARK_ORIGIN[2])
-                body = pb.createMultiBody(
-                    baseMass=OBJECT_DYNAMICS["mass"],
-                    baseCollisionShapeIndex=self._shapes[shape].collision,
-                    baseVisualShapeIndex=self._shapes[shape].visual,
-                    basePosition=park,
-                    useMaximalCoordinates=False,
-                    physicsClientId=c,
-                )
-                pb.changeDynamics(
-                    body, -1,
-                    lateralFriction=OBJECT_DYNAMICS["lateralFriction"],
-                    spinningFriction=OBJECT_DYNAMICS["spinningFriction"],
-                    rollingFriction=OBJECT_DYNAMICS["rollingFriction"],
-                    restitution=OBJECT_DYNAMICS["restitution"],
-                    linearDamping=OBJECT_DYNAMICS["linearDamping"],
-                    angularDamping=OBJECT_DYNAMICS["angularDamping"],
-                    activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING,
-                    physicsClientId=c,
-                )
-                self.pool[shape].append(int(body))
-                self._park[int(body)] = park
-                slot += 1
-        self._pool_order: tuple[int, ...] = tuple(b for s in SHAPES for b in self.pool[s])
-        self.bodies: tuple[int, ...] = ()  # bodies of the current instance, in scene order
-        self.objects: tuple[SceneObject, ...] = ()
-        # segmentation lookup, shifted by one: entry 0 is PyBullet's -1 (no body)
-        self._seg_lut = np.full(pb.getNumBodies(physicsClientId=c) + 2, -1, dtype=np.int16)
-        self._fills: dict[tuple[int, int], NDArray[np.uint8]] = {}
-        self._scenery_cache: dict[Camera, RenderedImages] = {}
         # visual shapes of the table, floor and robot: (body, link, rgba), hidden while
         # the objects are rendered over a cached empty scene (render(composite=True))
-        self._scenery: tuple[tuple[int, int, tuple[float, ...]], ...] = tuple(
+        self._scenery = tuple(
             (int(d[0]), int(d[1]), tuple(float(v) for v in d[7]))
             for b in (self.plane, self.table, self.panda) if b is not None
             for d in pb.getVisualShapeData(b, physicsClientId=c))
-        self.begin(())
 
-    # -- construction ------------------------------------------------------------------
     def _load_panda(self) -> None:
         pb, c = self.pb, self.client
-        if self.config.panda == "lean":
-            urdf = str(lean_panda_urdf(self._assets, self._data_path))
-        else:
-            urdf = "franka_panda/panda.urdf"
         orn = pb.getQuaternionFromEuler([0.0, 0.0, -math.pi / 2.0])
-        body = pb.loadURDF(urdf, list(PANDA_BASE), orn, useFixedBase=True, physicsClientId=c)
+        body = pb.loadURDF(self._panda_urdf, list(PANDA_BASE), orn, useFixedBase=True,
+                           physicsClientId=c)
         self.panda = int(body)
         for link in range(-1, pb.getNumJoints(body, physicsClientId=c)):
             pb.setCollisionFilterGroupMask(body, link, GROUP_ROBOT, GROUP_OBJECT,
@@ -293,6 +268,51 @@ class World:
                 pb.changeVisualShape(body, link, rgbaColor=colour, physicsClientId=c)
         self.reset_panda()
 
+    def _create_objects(self, objects: Sequence[SceneObject]) -> list[int]:
+        """One body per object, in scene order, coloured, parked far apart below the floor
+        (colliding with nothing there) until :meth:`place`."""
+        pb, c = self.pb, self.client
+        shapes: dict[str, ShapeIds] = {}
+        textures: dict[str, int] = {}
+        bodies: list[int] = []
+        for slot, obj in enumerate(objects):
+            if obj.shape not in shapes:
+                shapes[obj.shape] = create_shape_ids(pb, c, obj.shape)
+            park = (_PARK_ORIGIN[0] + _PARK_SPACING * slot, _PARK_ORIGIN[1], _PARK_ORIGIN[2])
+            body = int(pb.createMultiBody(
+                baseMass=OBJECT_DYNAMICS["mass"],
+                baseCollisionShapeIndex=shapes[obj.shape].collision,
+                baseVisualShapeIndex=shapes[obj.shape].visual,
+                basePosition=park,
+                useMaximalCoordinates=False,
+                physicsClientId=c,
+            ))
+            pb.changeDynamics(
+                body, -1,
+                lateralFriction=OBJECT_DYNAMICS["lateralFriction"],
+                spinningFriction=OBJECT_DYNAMICS["spinningFriction"],
+                rollingFriction=OBJECT_DYNAMICS["rollingFriction"],
+                restitution=OBJECT_DYNAMICS["restitution"],
+                linearDamping=OBJECT_DYNAMICS["linearDamping"],
+                angularDamping=OBJECT_DYNAMICS["angularDamping"],
+                activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING,
+                physicsClientId=c,
+            )
+            pb.setCollisionFilterGroupMask(body, -1, GROUP_OBJECT,
+                                           GROUP_SCENERY | GROUP_OBJECT | GROUP_ROBOT,
+                                           physicsClientId=c)
+            if obj.shape == "dice":
+                if obj.colour not in textures:
+                    textures[obj.colour] = int(pb.loadTexture(
+                        str(self._texture_files[obj.colour]), physicsClientId=c))
+                pb.changeVisualShape(body, -1, textureUniqueId=textures[obj.colour],
+                                     rgbaColor=[1.0, 1.0, 1.0, 1.0], physicsClientId=c)
+            else:
+                pb.changeVisualShape(body, -1, rgbaColor=list(COLOUR_RGBA[obj.colour]),
+                                     physicsClientId=c)
+            bodies.append(body)
+        return bodies
+
     # -- instance lifecycle --------------------------------------------------------------
     def reset_panda(self) -> None:
         """Put the Panda in its rest pose, at rest, holding it with position control."""
@@ -309,49 +329,17 @@ class World:
                                      forces=[200.0] * len(joints), physicsClientId=c)
 
     def begin(self, objects: Sequence[SceneObject]) -> tuple[int, ...]:
-        """Start an instance with ``objects``: assign and colour pool bodies, park the rest.
+        """Start an instance with ``objects``: reset the simulation, rebuild the table and
+        the Panda (at rest) and create the objects' bodies, parked until :meth:`place`.
 
-        Every pool body leaves and re-enters the collision world in the fixed pool order,
-        which clears contact state left by earlier instances, and the Panda is reset.
-        Returns the bodies in scene order; objects stay parked until :meth:`place`.
-
-        Parked bodies keep falling (far away, colliding with nothing) rather than being
-        put to sleep: sleeping and waking bodies was measured to leak history into the
-        results, and saves only ~30 us per physics step.
+        Returns the bodies in scene order. Parked bodies keep falling (far away, colliding
+        with nothing) rather than being put to sleep, as sleeping and waking bodies was
+        measured to leak history into the results.
         """
-        pb, c = self.pb, self.client
-        counts = {s: 0 for s in SHAPES}
-        bodies: list[int] = []
-        for obj in objects:
-            k = counts[obj.shape]
-            if k >= len(self.pool[obj.shape]):
-                msg = (
-                    f"the scene has more than {len(self.pool[obj.shape])} {obj.shape} objects; "
-                    f"build the World with WorldConfig(pool_per_shape>={k + 1})"
-                )
-                raise InvalidArgument(msg)
-            counts[obj.shape] = k + 1
-            bodies.append(self.pool[obj.shape][k])
-        self.reset_panda()
-        active = set(bodies)
-        for body in self._pool_order:
-            pb.resetBasePositionAndOrientation(body, self._park[body], (0.0, 0.0, 0.0, 1.0),
-                                               physicsClientId=c)
-            pb.resetBaseVelocity(body, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=c)
-            pb.setCollisionFilterGroupMask(body, -1, 0, 0, physicsClientId=c)
-        for body in self._pool_order:
-            if body in active:
-                pb.setCollisionFilterGroupMask(body, -1, GROUP_OBJECT,
-                                               GROUP_SCENERY | GROUP_OBJECT | GROUP_ROBOT,
-                                               physicsClientId=c)
-        for obj, body in zip(objects, bodies, strict=True):
-            rgba = list(COLOUR_RGBA[obj.colour])
-            if obj.shape == "dice":
-                pb.changeVisualShape(body, -1, textureUniqueId=self._textures[obj.colour],
-                                     rgbaColor=[1.0, 1.0, 1.0, 1.0], physicsClientId=c)
-            else:
-                pb.changeVisualShape(body, -1, rgbaColor=rgba, physicsClientId=c)
-        self._seg_lut[:] = -1
+        self._build_scenery()
+        bodies = self._create_objects(objects)
+        n = self.pb.getNumBodies(physicsClientId=self.client)
+        self._seg_lut = np.full(n + 2, -1, dtype=np.int16)  # entry 0: PyBullet's -1
         for i, body in enumerate(bodies):
             self._seg_lut[body + 1] = i
         self.bodies = tuple(bodies)
@@ -554,7 +542,7 @@ class World:
 
     # -- bookkeeping ---------------------------------------------------------------------
     def body_count(self) -> int:
-        """Number of bodies in the client (constant after construction)."""
+        """Number of bodies in the client: the scenery and the current instance's objects."""
         n: int = self.pb.getNumBodies(physicsClientId=self.client)
         return n
 

@@ -1,6 +1,6 @@
 """Non-learned baselines that write ordinary prediction files: oracle, noop, random.
 
-``run_baseline("oracle", episodes, "pred.jsonl", split="smoke-v1")`` writes a file the
+``run_baseline("oracle", episodes, "pred.jsonl", split="smoke-v2")`` writes a file the
 public scorer reads like any submission (``nsrmp-bench baseline NAME --data DATA --out PRED``).
 """
 

@@ -2,7 +2,7 @@
 
 Example::
 
-    nsrmp-bench check-submission predictions.jsonl --split smoke-v1 --data data/smoke/test
+    nsrmp-bench check-submission predictions.jsonl --split smoke-v2 --data data/smoke/test
 
 Without ``--data`` the file is checked on its own (header, JSON, fields, types, numbers,
 programs, duplicates); with it, also ids, object and step counts, and image bounds. Exit

@@ -2,7 +2,7 @@
 
 Example::
 
-    NSRMP_BENCH_MIRROR=https://host/release nsrmp-bench download --split paper-v1 --out data/paper
+    NSRMP_BENCH_MIRROR=https://host/release nsrmp-bench download --split paper-v2 --out data/paper
 
 Every file's sha256 is checked against the registry (for official splits: the manifests
 committed in the package). Files already present and correct are kept (resume); a
@@ -21,7 +21,7 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
-    parser.add_argument("--split", required=True, help="split id, e.g. paper-v1")
+    parser.add_argument("--split", required=True, help="split id, e.g. paper-v2")
     parser.add_argument("--out", type=Path, required=True, help="where the parts go")
     parser.add_argument("--base-url", default=None,
                         help=f"mirror base URL (default: ${MIRROR_ENV})")

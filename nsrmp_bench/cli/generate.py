@@ -2,7 +2,7 @@
 
 Example::
 
-    nsrmp-bench generate --split paper-v1 --out data/paper --workers 2
+    nsrmp-bench generate --split paper-v2 --out data/paper --workers 2
 
 Each part lands in ``OUT/<part>/`` (shards, ``manifest.json``). The bytes do not depend on
 ``--workers`` or the order of generation; a rerun after Ctrl-C or a kill keeps the shards
@@ -29,7 +29,7 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
-    parser.add_argument("--split", required=True, help="split id, e.g. paper-v1")
+    parser.add_argument("--split", required=True, help="split id, e.g. paper-v2")
     parser.add_argument("--out", required=True, type=Path, help="output directory")
     parser.add_argument("--part", action="append", default=None,
                         help="only this part (repeatable); default: every part")

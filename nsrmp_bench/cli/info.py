@@ -3,7 +3,7 @@
 Examples::
 
     nsrmp-bench info data/paper/test      # what was generated
-    nsrmp-bench info paper-v1             # what the spec asks for, per part
+    nsrmp-bench info paper-v2             # what the spec asks for, per part
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ CATEGORIES = ("steps", "objects", "relational", "relation_needed", "phrasing", "
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
-    parser.add_argument("target", help="a data directory / shard, or a split id like paper-v1")
+    parser.add_argument("target", help="a data directory / shard, or a split id like paper-v2")
 
 
 def category_frame(target: str) -> pd.DataFrame:

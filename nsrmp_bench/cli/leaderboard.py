@@ -2,7 +2,7 @@
 
 Example::
 
-    nsrmp-bench generate --split paper-v1 --out data/paper-v1 --part test
+    nsrmp-bench generate --split paper-v2 --out data/paper-v2 --part test
     nsrmp-bench leaderboard --data data           # data/<split id>/<part>/
 
 Scores every entry of ``leaderboards/entries/`` with the public scorer and writes

@@ -2,10 +2,10 @@
 
 Example::
 
-    nsrmp-bench generate --split paper-v1 --out data/paper
+    nsrmp-bench generate --split paper-v2 --out data/paper
     nsrmp-bench pack data/paper --out release/
     # host release/ on any static web server; users then run
-    nsrmp-bench download --split paper-v1 --out data/paper --base-url https://host/release
+    nsrmp-bench download --split paper-v2 --out data/paper --base-url https://host/release
 """
 
 from __future__ import annotations

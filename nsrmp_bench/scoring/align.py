@@ -63,7 +63,7 @@ class PredictionTable:
 
 def split_matches(declared: str, data: str) -> bool:
     """Whether a header's split id names the data's: the same id, or the split of the data's
-    part (``paper-v1`` for data ``paper-v1/test``; the ids then tell the parts apart)."""
+    part (``paper-v2`` for data ``paper-v2/test``; the ids then tell the parts apart)."""
     return declared == data or data.startswith(declared + "/")
 
 

@@ -4,8 +4,8 @@ A predictions file is JSON Lines (or Parquet with the same columns). Its first l
 header, every further line one instance::
 
     {"header": {"format": "nsrmp-bench-predictions", "format_version": "1.0.0",
-                "split": "smoke-v1", "scorer": "scorer-v1", "model": "my-model"}}
-    {"id": "smoke-v1/000000", "boxes": [[x1, y1, x2, y2], ...],
+                "split": "smoke-v2", "scorer": "scorer-v1", "model": "my-model"}}
+    {"id": "smoke-v2/000000", "boxes": [[x1, y1, x2, y2], ...],
      "program": [["top", 2, 0]], "pick": [u, v], "place": [u, v],
      "step_boxes": [[[x1, y1, x2, y2], ...]], "positions": [[x, y, z], ...]}
 

@@ -194,7 +194,7 @@ class ShardWriter:
         f.attrs["index_stop"] = np.int64(self.stop)
         f.attrs["num_episodes"] = np.int64(len(self._entries))
         self._data.attrs["total"] = np.int64(len(self._entries))
-        # robomimic's mask/<filter key>; a split such as "paper-v1/train" nests
+        # robomimic's mask/<filter key>; a split such as "paper-v2/train" nests
         parts = [p for p in (self.split or "all").split("/") if p not in ("", ".", "..")]
         group = create_group(f, "mask")
         for part in parts[:-1]:

@@ -9,7 +9,7 @@ Two ways to run it:
   episodes/s at 0 and 2 workers next to raw h5py reads of the same data, MCAP export rate
   and size; ``--codecs`` adds the codec comparison on the same images).
 
-The episodes are real ones (paper-v1 train, rendered with PyBullet) when the generators
+The episodes are real ones (paper-v2 train, rendered with PyBullet) when the generators
 and PyBullet are importable, else synthetic ones from the storage test factory.
 """
 
@@ -46,9 +46,9 @@ def make_episodes(n: int) -> tuple[list[Episode], str]:
         from nsrmp_bench.geometry.default_camera import official_camera
         from nsrmp_bench.split_specs import load_split
 
-        spec = load_split("paper-v1")
+        spec = load_split("paper-v2")
         with World(official_camera(*spec.image)) as world:
-            return [make_episode(spec, "train", i, world) for i in range(n)], "paper-v1/train"
+            return [make_episode(spec, "train", i, world) for i in range(n)], "paper-v2/train"
     except ImportError:
         from storage_factory import make_episode as synthetic
 

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 from collections import Counter
+from importlib import resources
 
 import pytest
 
@@ -31,7 +33,7 @@ def test_entropies_are_unique_across_parts() -> None:
 
 
 def test_paper_is_balanced() -> None:
-    spec = load_split("paper-v1")
+    spec = load_split("paper-v2")
     configs = [spec.config("test", i) for i in range(spec.parts["test"].count)]
     for axis in ("objects", "steps", "relational", "phrasing"):
         counts = Counter(getattr(c, axis) for c in configs)
@@ -40,12 +42,12 @@ def test_paper_is_balanced() -> None:
 
 @pytest.mark.parametrize(
     ("split", "part", "axis"),
-    [("objects-v1", "test", "objects"), ("steps-v1", "test", "steps"),
-     ("attributes-v1", "test", "required_pairs"), ("attributes-v1", "train", "pairs"),
-     ("language-v1", "test", "held_out")],
+    [("objects-v2", "test", "objects"), ("steps-v2", "test", "steps"),
+     ("attributes-v2", "test", "required_pairs"), ("attributes-v2", "train", "pairs"),
+     ("language-v2", "test", "held_out")],
 )
 def test_ood_splits_change_one_axis(split: str, part: str, axis: str) -> None:
-    paper = load_split("paper-v1")
+    paper = load_split("paper-v2")
     spec = load_split(split)
     fields = ("objects", "steps", "relational", "phrasing", "held_out", "pairs", "required_pairs")
     ours = {f: {getattr(spec.config(part, i), f) for i in range(spec.parts[part].count)}
@@ -57,9 +59,22 @@ def test_ood_splits_change_one_axis(split: str, part: str, axis: str) -> None:
 
 
 def test_unknown_split_names_close_matches_and_versions() -> None:
-    with pytest.raises(UnknownId, match=r"did you mean 'paper-v1'"):
+    with pytest.raises(UnknownId, match=r"did you mean 'paper-v2'"):
         load_split("papr-v1")
-    with pytest.raises(UnknownId, match=r"versions of it that do: \['paper-v1'\]"):
+    with pytest.raises(UnknownId, match=r"versions of it that do: \['paper-v2'\]"):
         load_split("paper-v9")
     with pytest.raises(UnknownId, match=r"has no part 'train'; its parts are \['test'\]"):
-        load_split("objects-v1").part("train")
+        load_split("objects-v2").part("train")
+
+
+def test_a_withdrawn_split_names_its_successor_and_why() -> None:
+    assert "paper-v1" in list_splits(withdrawn=True)
+    assert "paper-v1" not in list_splits()
+    with pytest.raises(UnknownId, match=r"'paper-v1' was withdrawn: .*issue 18.*Use 'paper-v2'"):
+        load_split("paper-v1")
+    successor = load_split("paper-v2").to_dict()
+    assert successor["supersedes"]["id"] == "paper-v1"
+    old = dict(json.loads((resources.files("nsrmp_bench.splits") / "paper-v1.json")
+                          .read_text("utf-8")))
+    same = {k: v for k, v in successor.items() if k not in ("id", "supersedes")}
+    assert same == {k: v for k, v in old.items() if k not in ("id", "withdrawn")}

@@ -1,5 +1,5 @@
-"""A tiny paper-v1 split (train and val, first instances only) generated once for the
-model tests, and smoke-v1/test."""
+"""A tiny paper-v2 split (train and val, first instances only) generated once for the
+model tests, and smoke-v2/test."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ def tiny_paper(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from nsrmp_bench.split_specs import load_split
 
     out = tmp_path_factory.mktemp("tiny-paper")
-    spec = load_split("paper-v1")
+    spec = load_split("paper-v2")
     generate_part(spec, "train", out / "train", workers=2, limit=TRAIN)
     generate_part(spec, "val", out / "val", workers=2, limit=VAL)
     return out
@@ -30,5 +30,5 @@ def smoke_test(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from nsrmp_bench.generators.generate import generate_split
 
     out = tmp_path_factory.mktemp("smoke-models")
-    generate_split("smoke-v1", out, workers=2)
+    generate_split("smoke-v2", out, workers=2)
     return out / "test"

@@ -51,7 +51,7 @@ def test_tiny_training_learns(tiny_run: Path, tiny_paper: Path, tmp_path: Path) 
     assert main(["predict", "nsrm", "--data", str(train), "--out", str(pred),
                  "--checkpoint", str(tiny_run / "best.pt"), "--quiet"]) == 0
     assert main(["baseline", "noop", "--data", str(train), "--out", str(noop)]) == 0
-    assert main(["check-submission", str(pred), "--split", "paper-v1/train", "--data",
+    assert main(["check-submission", str(pred), "--split", "paper-v2/train", "--data",
                  str(train)]) == 0
     ours = _headline(_score(pred, train, tmp_path), "iou_m")
     floor = _headline(_score(noop, train, tmp_path), "iou_m")
@@ -146,14 +146,14 @@ def test_model_never_reads_targets(tiny_run: Path, smoke_test: Path) -> None:
 def test_shipped_checkpoint_predicts_and_beats_noop(smoke_test: Path, tmp_path: Path) -> None:
     pred, noop = tmp_path / "nsrm.jsonl", tmp_path / "noop.jsonl"
     assert main(["predict", "nsrm", "--data", str(smoke_test), "--out", str(pred)]) == 0
-    assert main(["check-submission", str(pred), "--split", "smoke-v1/test", "--data",
+    assert main(["check-submission", str(pred), "--split", "smoke-v2/test", "--data",
                  str(smoke_test)]) == 0
     assert main(["baseline", "noop", "--data", str(smoke_test), "--out", str(noop)]) == 0
     ours = _headline(_score(pred, smoke_test, tmp_path), "iou_m")
     floor = _headline(_score(noop, smoke_test, tmp_path), "iou_m")
     assert ours > floor + 0.05 and ours > 5 * floor, (ours, floor)
     header = json.loads(pred.read_text().splitlines()[0])["header"]
-    assert header["model"] == "nsrm-v1" and header["split"] == "smoke-v1/test"
+    assert header["model"] == "nsrm-v1" and header["split"] == "smoke-v2/test"
 
 
 def test_bad_input_is_a_clear_error(tiny_paper: Path, tmp_path: Path,

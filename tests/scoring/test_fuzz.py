@@ -103,7 +103,7 @@ def submission_text(draw: st.DrawFn) -> tuple[str, int]:
     header: Any = {"header": HEADER.to_dict()}
     hkind = draw(st.sampled_from(["keep"] * 12 + ["drop", "split", "scorer", "version", "junk"]))
     if hkind == "split":
-        header["header"]["split"] = "paper-v1"
+        header["header"]["split"] = "paper-v2"
     elif hkind == "scorer":
         header["header"]["scorer"] = "scorer-v2"
     elif hkind == "version":

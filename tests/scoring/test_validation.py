@@ -70,7 +70,7 @@ def test_a_valid_file_scores(tmp_path: Path, gold: GoldTable) -> None:
     ("lines", "matches"),
     [
         ([good("e0")], ["line 1", "first line must be the header", "a prediction"]),
-        ([header_line(split="paper-v1"), good()], ["split 'paper-v1'", f"split {SPLIT!r}"]),
+        ([header_line(split="paper-v2"), good()], ["split 'paper-v2'", f"split {SPLIT!r}"]),
         ([header_line(scorer="scorer-v9"), good()], ["line 1", "'scorer-v9'", "scorer-v1"]),
         ([header_line(format_version="2.0.0"), good()], ["line 1", "'2.0.0'", "version 1.x"]),
         ([header_line(format="other"), good()], ["line 1", "format is 'other'"]),
@@ -178,8 +178,8 @@ def test_check_submission(tmp_path: Path, gold: GoldTable) -> None:
     report = check_submission(p, split=SPLIT)
     assert report.lines == 2 and not report.against_data
     assert "were not checked" in report.summary()
-    with pytest.raises(SubmissionError, match="checking it for split 'paper-v1'"):
-        check_submission(p, split="paper-v1")
+    with pytest.raises(SubmissionError, match="checking it for split 'paper-v2'"):
+        check_submission(p, split="paper-v2")
     with pytest.raises(SubmissionError, match="'zz' is not an instance"):
         check_submission(p, split=SPLIT, data=gold)
     ok = write(tmp_path, [header_line(), good("e0")], "ok.jsonl")
@@ -220,9 +220,9 @@ def test_parquet_problems_name_rows(tmp_path: Path, gold: GoldTable) -> None:
 def test_other_split_from_python(gold: GoldTable) -> None:
     from nsrmp_bench.scoring import Submission
 
-    sub = Submission.from_predictions(SubmissionHeader(split="smoke-v1"),
+    sub = Submission.from_predictions(SubmissionHeader(split="smoke-v2"),
                                       [Prediction("e0", np.array(FINAL))])
-    with pytest.raises(SubmissionError, match="header says split 'smoke-v1'"):
+    with pytest.raises(SubmissionError, match="header says split 'smoke-v2'"):
         score(sub, gold, n_boot=0)
 
 

@@ -1,4 +1,4 @@
-"""One generated smoke-v1 split shared by the split tests (generation takes seconds)."""
+"""One generated smoke-v2 split shared by the split tests (generation takes seconds)."""
 
 from __future__ import annotations
 
@@ -14,5 +14,5 @@ def smoke_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from nsrmp_bench.generators.generate import generate_split
 
     out = tmp_path_factory.mktemp("smoke")
-    generate_split("smoke-v1", out, workers=2)  # the official shard size
+    generate_split("smoke-v2", out, workers=2)  # the official shard size
     return out

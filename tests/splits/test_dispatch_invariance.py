@@ -4,8 +4,8 @@ Two subprocesses generate a small mixed part, one with numpy's and OpenBLAS's de
 dispatch, one with every numpy dispatch target disabled (``NPY_DISABLE_CPU_FEATURES``, only
 the baseline left), OpenBLAS forced to a pre-AVX core (``OPENBLAS_CORETYPE=Nehalem``) and
 OpenCV's optional SIMD paths off (``OPENCV_CPU_DISABLE``):
-teleport episodes (smoke-v1: 3-15 objects, 1-7 steps) must give equal root hashes, equal to
-the committed one; robot episodes (the first of robot-v1) must agree within the tolerances
+teleport episodes (smoke-v2: 3-15 objects, 1-7 steps) must give equal root hashes, equal to
+the committed one; robot episodes (the first of robot-v2) must agree within the tolerances
 the manifest states. Runs on any x86-64 machine in about 30 s.
 """
 
@@ -36,8 +36,8 @@ import sys
 from nsrmp_bench.generators.generate import generate_part
 from nsrmp_bench.split_specs import load_split
 out = sys.argv[1]
-generate_part(load_split("smoke-v1"), "test", out + "/smoke", workers=1)
-generate_part(load_split("robot-v1"), "test", out + "/robot", workers=1, limit=int(sys.argv[2]))
+generate_part(load_split("smoke-v2"), "test", out + "/smoke", workers=1)
+generate_part(load_split("robot-v2"), "test", out + "/robot", workers=1, limit=int(sys.argv[2]))
 """
 
 
@@ -75,7 +75,7 @@ def test_teleport_bytes_do_not_depend_on_dispatch(
               if x["hash"] != y["hash"]]
     assert not differ, f"teleport episodes depend on SIMD/BLAS dispatch: {differ}"
     assert a["root_hash"] == b["root_hash"]
-    committed = official_manifest("smoke-v1", "test")
+    committed = official_manifest("smoke-v2", "test")
     assert committed is not None and committed["root_hash"] == a["root_hash"]
 
 
@@ -87,7 +87,7 @@ def test_robot_episodes_agree_within_the_stated_tolerances(
     local = {int(e["index"]): (e["hash"], e["tolerant"]) for e in b["episodes"]}
     cmp = compare_with_committed(local, a)
     assert cmp.ok, cmp.beyond_tolerance
-    committed = official_manifest("robot-v1", "test")
+    committed = official_manifest("robot-v2", "test")
     assert committed is not None
     against = compare_with_committed(local, committed)
     assert not against.differ_beyond, against.beyond_tolerance

@@ -1,7 +1,7 @@
 """``download`` as the README shows it: the installed CLI, progress bars on (issue 18).
 
 The console script of the venv the tests run in (installed the README's way,
-``pip install -e ".[all,dev]"``) packs smoke-v1, serves it on 127.0.0.1 and downloads it
+``pip install -e ".[all,dev]"``) packs smoke-v2, serves it on 127.0.0.1 and downloads it
 with progress bars, once more with tqdm unimportable (pooch's own bars need it; ours are
 rich). A ValueError from pooch that is not a hash mismatch gets its own message.
 """
@@ -60,11 +60,11 @@ def test_readme_download_with_progress(mirror: str, tmp_path: Path, tqdm: str) -
         env["PYTHONPATH"] = os.pathsep.join([str(fake.parent), env.get("PYTHONPATH", "")])
     out = tmp_path / "dl"
     proc = subprocess.run(
-        [*_cli(), "download", "--split", "smoke-v1", "--out", str(out), "--base-url", mirror],
+        [*_cli(), "download", "--split", "smoke-v2", "--out", str(out), "--base-url", mirror],
         env=env, capture_output=True, text=True, timeout=120,
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert "smoke-v1: 1 files verified" in proc.stdout
+    assert "smoke-v2: 1 files verified" in proc.stdout
     assert "corrupted" not in proc.stdout + proc.stderr
     verified = subprocess.run([*_cli(), "verify", str(out / "test")], capture_output=True,
                               text=True, timeout=120)
@@ -82,7 +82,7 @@ def test_a_pooch_error_that_is_no_hash_mismatch_is_not_called_corruption(
 
     monkeypatch.setattr(pooch, "retrieve", refuse)
     with pytest.raises(DownloadError) as info:
-        download("smoke-v1", tmp_path, base_url=mirror)
+        download("smoke-v2", tmp_path, base_url=mirror)
     text = str(info.value)
     assert "pooch refused the download (Missing package 'tqdm'" in text
     assert "corrupted" not in text and "does not match" not in text

@@ -25,7 +25,7 @@ def _manifest(d: Path) -> dict:
 def test_same_episodes_for_any_workers_and_shard_size(smoke_dir: Path, tmp_path: Path) -> None:
     from nsrmp_bench.generators.generate import generate_split
 
-    generate_split("smoke-v1", tmp_path, workers=1, shard_size=5)
+    generate_split("smoke-v2", tmp_path, workers=1, shard_size=5)
     a, b = _manifest(smoke_dir / "test"), _manifest(tmp_path / "test")
     assert a["root_hash"] == b["root_hash"]
     assert [e["hash"] for e in a["episodes"]] == [e["hash"] for e in b["episodes"]]
@@ -34,9 +34,9 @@ def test_same_episodes_for_any_workers_and_shard_size(smoke_dir: Path, tmp_path:
 
 
 def test_matches_the_committed_manifest(smoke_dir: Path) -> None:
-    committed = official_manifest("smoke-v1", "test")
+    committed = official_manifest("smoke-v2", "test")
     if committed is None:
-        pytest.skip("no committed manifest for smoke-v1 yet")
+        pytest.skip("no committed manifest for smoke-v2 yet")
     assert _manifest(smoke_dir / "test")["root_hash"] == committed["root_hash"]
 
 
@@ -53,7 +53,7 @@ def test_every_episode_is_rendered_and_categorised(smoke_dir: Path) -> None:
 
 def test_resume_after_kill_reaches_the_same_manifest(smoke_dir: Path, tmp_path: Path) -> None:
     out = tmp_path / "killed"
-    cmd = [sys.executable, "-m", "nsrmp_bench.cli.main", "generate", "--split", "smoke-v1",
+    cmd = [sys.executable, "-m", "nsrmp_bench.cli.main", "generate", "--split", "smoke-v2",
            "--out", str(out), "--workers", "1", "--shard-size", "4", "--quiet"]
     proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)

@@ -32,27 +32,27 @@ def _entries(tmp_path: Path, splits: set[str]) -> Path:
 
 
 def test_smoke_board_rebuilds_to_the_committed_bytes(smoke_dir: Path, tmp_path: Path) -> None:
-    entries = _entries(tmp_path, {"smoke-v1/test"})
+    entries = _entries(tmp_path, {"smoke-v2/test"})
     root = tmp_path / "data"
     root.mkdir()
-    (root / "smoke-v1").symlink_to(smoke_dir, target_is_directory=True)
+    (root / "smoke-v2").symlink_to(smoke_dir, target_is_directory=True)
     boards = build(entries, root, tmp_path / "out")
-    assert [r["model"] for r in boards["smoke-v1/test"]] == [
+    assert [r["model"] for r in boards["smoke-v2/test"]] == [
         "oracle-v1", "nsrm-v1", "random-v1", "noop-v1"]
     for suffix in (".json", ".md"):
-        rebuilt = (tmp_path / "out" / f"smoke-v1-test{suffix}").read_text()
-        assert rebuilt == (BOARDS / f"smoke-v1-test{suffix}").read_text()
+        rebuilt = (tmp_path / "out" / f"smoke-v2-test{suffix}").read_text()
+        assert rebuilt == (BOARDS / f"smoke-v2-test{suffix}").read_text()
 
 
 @pytest.fixture(scope="module")
 def board_data(smoke_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """smoke-v1 and paper-v1/test (1,000 episodes, about 30 s with 2 workers)."""
+    """smoke-v2 and paper-v2/test (1,000 episodes, about 30 s with 2 workers)."""
     from nsrmp_bench.generators.generate import generate_part
     from nsrmp_bench.split_specs import load_split
 
     root = tmp_path_factory.mktemp("boards")
-    (root / "smoke-v1").symlink_to(smoke_dir, target_is_directory=True)
-    generate_part(load_split("paper-v1"), "test", root / "paper-v1" / "test", workers=2)
+    (root / "smoke-v2").symlink_to(smoke_dir, target_is_directory=True)
+    generate_part(load_split("paper-v2"), "test", root / "paper-v2" / "test", workers=2)
     return root
 
 
@@ -64,7 +64,7 @@ def test_every_board_rebuilds_to_the_committed_bytes_under_any_dispatch(
     """`nsrmp-bench leaderboard` in a process with numpy's default SIMD dispatch and
     OpenBLAS core, and in one with only numpy's baseline and a pre-AVX OpenBLAS core
     (BLAS kernels used to change the bootstrap bounds' last digits)."""
-    entries = _entries(tmp_path, {"smoke-v1/test", "paper-v1/test"})
+    entries = _entries(tmp_path, {"smoke-v2/test", "paper-v2/test"})
     env = {k: v for k, v in os.environ.items()
            if k not in ("NPY_DISABLE_CPU_FEATURES", "OPENBLAS_CORETYPE", "OPENCV_CPU_DISABLE")}
     if dispatch == "lowest":
@@ -75,7 +75,7 @@ def test_every_board_rebuilds_to_the_committed_bytes_under_any_dispatch(
     subprocess.run([sys.executable, "-m", "nsrmp_bench.cli.main", "leaderboard", "--data",
                     str(board_data), "--entries", str(entries), "--out", str(out)],
                    env=env, check=True, capture_output=True, timeout=300)
-    for name in ("paper-v1-test", "smoke-v1-test"):
+    for name in ("paper-v2-test", "smoke-v2-test"):
         for suffix in (".json", ".md"):
             rebuilt = (out / f"{name}{suffix}").read_text()
             assert rebuilt == (BOARDS / f"{name}{suffix}").read_text(), f"{name}{suffix}"
@@ -85,7 +85,7 @@ def test_bad_entries_name_the_fix(tmp_path: Path) -> None:
     (tmp_path / "x.json").write_text(json.dumps({"model": "m"}))
     with pytest.raises(InvalidArgument, match=r"needs 'model', 'split'.*'predictions'"):
         load_entries(tmp_path)
-    (tmp_path / "x.json").write_text(json.dumps({"model": "m", "split": "paper-v1",
+    (tmp_path / "x.json").write_text(json.dumps({"model": "m", "split": "paper-v2",
                                                   "predictions": "p.jsonl"}))
-    with pytest.raises(InvalidArgument, match=r"must name a part, e.g. 'paper-v1/test'"):
+    with pytest.raises(InvalidArgument, match=r"must name a part, e.g. 'paper-v2/test'"):
         load_entries(tmp_path)

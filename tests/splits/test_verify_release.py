@@ -69,13 +69,13 @@ def test_pack_and_download_verified_and_resumed(
 ) -> None:
     url, root, requests = server
     entries = pack(smoke_dir, root)
-    assert (root / "smoke-v1" / "registry.txt").is_file()
+    assert (root / "smoke-v2" / "registry.txt").is_file()
     assert {e.path.split("/")[0] for e in entries} == {"test"}
     out = tmp_path / "dl"
-    download("smoke-v1", out, base_url=url, trust_mirror_registry=True)
+    download("smoke-v2", out, base_url=url, trust_mirror_registry=True)
     assert verify(out / "test").ok
     before = len(requests)
-    download("smoke-v1", out, base_url=url, trust_mirror_registry=True)
+    download("smoke-v2", out, base_url=url, trust_mirror_registry=True)
     fetched_again = [r for r in requests[before:] if r.endswith(".h5")]
     assert not fetched_again, "files already present and correct must not be fetched again"
 
@@ -85,19 +85,19 @@ def test_download_refuses_a_corrupted_file(
 ) -> None:
     url, root, _ = server
     pack(smoke_dir, root)
-    shard = sorted((root / "smoke-v1" / "test").glob("shard-*.h5"))[0]
+    shard = sorted((root / "smoke-v2" / "test").glob("shard-*.h5"))[0]
     data = bytearray(shard.read_bytes())
     data[len(data) // 2] ^= 0xFF
     shard.write_bytes(bytes(data))
     out = tmp_path / "dl"
     with pytest.raises(DownloadError, match=r"does not match the registry's sha256.*corrupted"):
-        download("smoke-v1", out, base_url=url, trust_mirror_registry=True)
+        download("smoke-v2", out, base_url=url, trust_mirror_registry=True)
     assert not (out / "test" / shard.name).exists(), "a corrupted download must not be kept"
 
 
 def test_download_without_mirror_says_what_to_do(tmp_path: Path) -> None:
     with pytest.raises(DownloadError, match=r"pass --base-url URL or set NSRMP_BENCH_MIRROR"):
-        download("smoke-v1", tmp_path, base_url="")
+        download("smoke-v2", tmp_path, base_url="")
 
 
 def test_cli_info_audit_verify(smoke_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -112,7 +112,7 @@ def test_cli_info_audit_verify(smoke_dir: Path, capsys: pytest.CaptureFixture[st
 def test_audit_fails_on_shared_instances(smoke_dir: Path) -> None:
     with open_data(smoke_dir / "test") as data:
         eps = [e.symbolic for e in data.iter_episodes(images=False)]
-    leaked = [("smoke-v1", "test", e) for e in eps] + [("paper-v1", "test", eps[0])]
+    leaked = [("smoke-v2", "test", e) for e in eps] + [("paper-v2", "test", eps[0])]
     report = audit(leaked)
     assert not report.ok
     assert report.shared["scenes"] == 1
@@ -124,13 +124,13 @@ def test_official_download_uses_the_committed_manifest(
 ) -> None:
     from nsrmp_bench.official_manifests import official_manifest
 
-    if official_manifest("smoke-v1", "test") is None:
-        pytest.skip("no committed manifest for smoke-v1")
+    if official_manifest("smoke-v2", "test") is None:
+        pytest.skip("no committed manifest for smoke-v2")
     url, root, requests = server
     pack(smoke_dir, root)
-    (root / "smoke-v1" / "registry.txt").write_text("not a registry\n")  # never read
+    (root / "smoke-v2" / "registry.txt").write_text("not a registry\n")  # never read
     out = tmp_path / "official"
-    download("smoke-v1", out, base_url=url)
+    download("smoke-v2", out, base_url=url)
     assert not any(r.endswith("registry.txt") for r in requests)
     report = verify(out / "test")
     assert report.ok, report.problems

@@ -24,7 +24,7 @@ N = 4
 
 @pytest.fixture(scope="module")
 def generated() -> list[Episode]:
-    spec = split_specs.load_split("smoke-v1")
+    spec = split_specs.load_split("smoke-v2")
     with world_mod.World(official_camera(*spec.image)) as world:
         return [generate.make_episode(spec, "test", i, world) for i in range(N)]
 
@@ -32,7 +32,7 @@ def generated() -> list[Episode]:
 def test_generated_episodes_round_trip(generated: list[Episode], tmp_path: Path) -> None:
     eps = {e.symbolic.seed.index: e for e in generated}
     manifest = write_dataset(tmp_path, lambda i: eps[i], 0, N, shard_size=3,
-                             split="smoke-v1/test")
+                             split="smoke-v2/test")
     coll = open(tmp_path, verify=True)
     assert coll.ids == [e.id for e in generated]
     for want, got in zip(generated, coll, strict=True):
@@ -48,7 +48,7 @@ def test_generated_episodes_round_trip(generated: list[Episode], tmp_path: Path)
         assert got.rendering.physics == want.rendering.physics
     assert [e.hash for e in manifest.episodes] == [episode_hash(e) for e in generated]
     with h5py.File(tmp_path / manifest.shards[0].file, "r") as f:
-        assert list(f["mask/smoke-v1/test"].asstr()[()]) == [e.id for e in generated[:3]]
+        assert list(f["mask/smoke-v2/test"].asstr()[()]) == [e.id for e in generated[:3]]
 
 
 def test_generated_episodes_export_to_mcap(generated: list[Episode], tmp_path: Path) -> None:
@@ -59,7 +59,7 @@ def test_generated_episodes_export_to_mcap(generated: list[Episode], tmp_path: P
     from nsrmp_bench.storage.mcap_export import export_mcap
 
     eps = {e.symbolic.seed.index: e for e in generated}
-    write_dataset(tmp_path / "d", lambda i: eps[i], 0, N, shard_size=N, split="smoke-v1/test")
+    write_dataset(tmp_path / "d", lambda i: eps[i], 0, N, shard_size=N, split="smoke-v2/test")
     summary = export_mcap(tmp_path / "d", tmp_path / "g.mcap")
     with (tmp_path / "g.mcap").open("rb") as fh:
         reader = make_reader(fh, decoder_factories=[DecoderFactory()])

@@ -1,4 +1,4 @@
-"""The World: object pool, renders, segmentation, the camera's framing and the robot."""
+"""The World: fresh simulations per instance, renders, segmentation, the camera's framing and the robot."""
 
 from __future__ import annotations
 
@@ -14,7 +14,6 @@ from world_scenes import grid_scene  # noqa: E402
 
 from nsrmp_bench.errors import InvalidArgument  # noqa: E402
 from nsrmp_bench.geometry.default_camera import OFFICIAL_CAMERA  # noqa: E402
-from nsrmp_bench.scene import SceneObject  # noqa: E402
 from nsrmp_bench.vocabulary import COLOURS, EXTENTS, SHAPES, TABLE_TOP_Z, TARGET_AREA  # noqa: E402
 
 pytestmark = pytest.mark.sim
@@ -36,25 +35,27 @@ def _spread(rng: np.random.Generator, n: int) -> Any:
     return grid_scene(shapes, colours, yaws=list(rng.uniform(0, np.pi, n)))
 
 
-def test_the_pool_is_reused_and_nothing_is_loaded_per_instance(world: Any) -> None:
+def test_every_instance_starts_from_a_fresh_simulation(world: Any) -> None:
     rng = np.random.default_rng(3)
-    count = world.body_count()
-    pool = {s: list(b) for s, b in world.pool.items()}
-    for _ in range(25):
+    world.begin(())
+    scenery = world.body_count()
+    for _ in range(6):
         scene = _spread(rng, int(rng.integers(1, 16)))
         bodies = world.begin(scene.objects)
+        assert world.body_count() == scenery + len(scene.objects)
+        assert list(bodies) == list(range(scenery, scenery + len(scene.objects)))
         for i, pose in enumerate(scene.initial):
             world.place(i, pose, lift=0.001)
         world.step(2)
-        assert set(bodies) <= {b for bs in pool.values() for b in bs}
-    assert world.body_count() == count
-    assert {s: list(b) for s, b in world.pool.items()} == pool
 
 
-def test_more_objects_of_a_shape_than_the_pool_holds_is_a_clear_error(world: Any) -> None:
-    too_many = [SceneObject("cube", "red")] * (len(world.pool["cube"]) + 1)
-    with pytest.raises(InvalidArgument, match="pool_per_shape"):
-        world.begin(too_many)
+def test_more_objects_of_a_shape_than_the_v1_pool_held_are_fine(world: Any) -> None:
+    scene = grid_scene(["cube"] * 16, ["red"] * 16)
+    world.begin(scene.objects)
+    for i, pose in enumerate(scene.initial):
+        world.place(i, pose, lift=0.001)
+    world.step(1)
+    assert len(world.poses()) == 16
 
 
 def test_render_gives_rgb_metric_depth_and_object_indices(world: Any) -> None:
