@@ -56,14 +56,14 @@ def train_nsrm(data: Path, out: Path, *, seed: int = 0, config: NSRMConfig | Non
                quiet: bool = False) -> Path:
     """Train on ``data/train``, select on ``data/val``; returns ``out/best.pt``.
 
-    A split without a val part (attributes-v1) selects on the last tenth of its train part,
+    A split without a val part (attributes-v2) selects on the last tenth of its train part,
     which is then not trained on.
     """
     cfg = config or NSRMConfig()
     if not (data / "train" / "manifest.json").exists():
         msg = (f"{data} has no finished part 'train' ({data / 'train'}); pass a split root "
                "holding train/ (and val/), e.g. generate one with `nsrmp-bench generate "
-               "--split paper-v1 --out data/paper`")
+               "--split paper-v2 --out data/paper`")
         raise InvalidArgument(msg)
     torch.set_num_threads(cfg.threads)
     torch.manual_seed(seed)
