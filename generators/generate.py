@@ -3,25 +3,26 @@
 Instance ``i`` of part ``p`` of split ``s`` is a pure function of (spec, p, i): attempt
 ``a`` samples the symbolic episode from ``SeedSequence(entropy_p, spawn_key=(i, a))`` and
 realises it in PyBullet; a symbolic or physical rejection moves on to attempt ``a + 1``.
-Shards are contiguous index ranges handed to a process pool, one PyBullet world per worker
-process, so the bytes do not depend on the worker count or the order shards finish in.
-Complete shards are kept on a rerun (resume after Ctrl-C or a kill).
+Shards are contiguous index ranges, one task each, handed to an engine (this process, a
+local process pool or a Dask cluster: ``nsrmp_bench.engine``); each worker process keeps
+one PyBullet world, reset for every instance, so the bytes do not depend on the engine,
+the worker count or the order shards finish in. Complete shards are kept on a rerun
+(resume after Ctrl-C, a kill or a lost scheduler).
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib.metadata
-import multiprocessing as mp
 import os
-import queue as queue_module
 from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from pathlib import Path
 from typing import Any
 
 from nsrmp_bench import __version__
 from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.dispatch import dispatch_versions
+from nsrmp_bench.engine import Engine, TaskReport, open_engine
 from nsrmp_bench.episode import Episode, SeedInfo
 from nsrmp_bench.generators.sampler import AttemptLog, first_valid, sample_symbolic
 from nsrmp_bench.split_specs import SplitSpec, load_split
@@ -33,6 +34,7 @@ from nsrmp_bench.storage.writer import ShardWriter
 __all__ = [
     "DEFAULT_SHARD_SIZE",
     "generate_part",
+    "generate_shard",
     "generate_split",
     "make_episode",
     "physics_fingerprint",
@@ -77,32 +79,35 @@ def make_episode(
     )
 
 
-# -- worker side ---------------------------------------------------------------------
-_WORLD: Any = None
-_QUEUE: Any = None
+# -- worker side (one task per shard range, whichever engine runs it) --------------------
+_WORLDS: dict[tuple[int, int], Any] = {}
 
 
-def _init_worker(split_id: str, progress: Any) -> None:
-    global _WORLD, _QUEUE
-    from nsrmp_bench.generators.world.world import World
-    from nsrmp_bench.geometry.default_camera import official_camera
+def _world(image: tuple[int, int]) -> Any:
+    """This process's World for ``image`` (width, height): made once, reset per instance."""
+    if image not in _WORLDS:
+        from nsrmp_bench.generators.world.world import World
+        from nsrmp_bench.geometry.default_camera import official_camera
 
-    spec = load_split(split_id)
-    _WORLD = World(official_camera(*spec.image))
-    _QUEUE = progress
+        _WORLDS[image] = World(official_camera(*image))
+    return _WORLDS[image]
 
 
-def _generate_shard(
-    split_id: str, part: str, start: int, stop: int, out_dir: str
+def generate_shard(
+    split_id: str, part: str, start: int, stop: int, out_dir: str, *, report: TaskReport
 ) -> tuple[ShardRecord, AttemptLog]:
+    """The task of one shard: instances ``[start, stop)`` written into ``out_dir``.
+
+    The shard writer's ``*.tmp`` + rename makes it safe to run again after a worker died.
+    """
     spec = load_split(split_id)
+    world = _world(spec.image)
     stats = AttemptLog()
     with ShardWriter(out_dir, start, stop, split=f"{split_id}/{part}",
                      package_version=__version__) as writer:
         for i in range(start, stop):
-            writer.add(make_episode(spec, part, i, _WORLD, stats))
-            if _QUEUE is not None:
-                _QUEUE.put(1)
+            writer.add(make_episode(spec, part, i, world, stats))
+            report.advance()
         record = writer.commit()
     return record, stats
 
@@ -152,14 +157,19 @@ def generate_part(
     out_dir: str | os.PathLike[str],
     *,
     workers: int = 2,
+    engine: Engine | None = None,
     shard_size: int = DEFAULT_SHARD_SIZE,
     limit: int | None = None,
     on_progress: ProgressCallback | None = None,
     on_start: Callable[[int, int], None] | None = None,
 ) -> tuple[Manifest, AttemptLog]:
-    """Generate (or resume) one part into ``out_dir``; returns its manifest and stats."""
+    """Generate (or resume) one part into ``out_dir``; returns its manifest and stats.
+
+    The shards still missing go to ``engine`` (entered by the caller), by default the local
+    one with ``workers`` processes; the manifest is written here once all are complete.
+    """
     count = spec.part(part).count if limit is None else min(limit, spec.part(part).count)
-    out = Path(out_dir)
+    out = Path(out_dir).resolve()
     out.mkdir(parents=True, exist_ok=True)
     (out / "manifest.json").unlink(missing_ok=True)
     state = scan_output(out)
@@ -169,44 +179,19 @@ def generate_part(
         on_start(count, done)
     stats = AttemptLog()
     if todo:
-        ctx = mp.get_context("spawn")
-        with ctx.Manager() as manager:
-            progress = manager.Queue()
-            with ProcessPoolExecutor(
-                max_workers=max(1, min(workers, len(todo))), mp_context=ctx,
-                initializer=_init_worker, initargs=(spec.id, progress),
-            ) as pool:
-                pending: set[Future[tuple[ShardRecord, AttemptLog]]] = {
-                    pool.submit(_generate_shard, spec.id, part, a, b, str(out)) for a, b in todo
-                }
-                try:
-                    while pending:
-                        finished, pending = wait(pending, timeout=0.2,
-                                                 return_when=FIRST_COMPLETED)
-                        _drain(progress, on_progress)
-                        for fut in finished:
-                            stats.merge(fut.result()[1])
-                    _drain(progress, on_progress)
-                except BaseException:
-                    for fut in pending:
-                        fut.cancel()
-                    raise
+        with contextlib.ExitStack() as stack:
+            if engine is None:
+                engine = stack.enter_context(open_engine("local", workers=workers))
+            engine.require_shared_dir(out)
+            tasks = [(spec.id, part, a, b, str(out)) for a, b in todo]
+            for _, (_, log) in engine.map_unordered(generate_shard, tasks,
+                                                    on_progress=on_progress):
+                stats.merge(log)
     manifest = write_manifest(
         out, split=f"{spec.id}/{part}", versions=versions(), index_range=(0, count),
         generator=spec.generator, verify=False,
     )
     return manifest, stats
-
-
-def _drain(progress: Any, on_progress: ProgressCallback | None) -> None:
-    n = 0
-    while True:
-        try:
-            n += progress.get_nowait()
-        except queue_module.Empty:
-            break
-    if n and on_progress is not None:
-        on_progress(n)
 
 
 def generate_split(

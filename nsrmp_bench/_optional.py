@@ -24,6 +24,8 @@ _EXTRA_OF: dict[str, str] = {
     "torch": "torch",
     "pooch": "download",
     "pyarrow": "parquet",
+    "dask": "dask",
+    "distributed": "dask",
 }
 
 

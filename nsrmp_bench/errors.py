@@ -12,6 +12,7 @@ __all__ = [
     "BadProgram",
     "DataIntegrityError",
     "DownloadError",
+    "EngineError",
     "GenerationError",
     "InfeasibleStep",
     "InvalidArgument",
@@ -73,6 +74,11 @@ class SubmissionError(NSRMPError):
 
 class DownloadError(NSRMPError):
     """A download failed or its content does not match the registered checksum."""
+
+
+class EngineError(NSRMPError):
+    """The engine running the tasks failed: a scheduler unreachable or gone, no workers,
+    workers with other versions, a task that kills its workers. Rerunning resumes."""
 
 
 class MissingExtra(NSRMPError, ImportError):

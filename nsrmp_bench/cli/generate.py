@@ -3,10 +3,13 @@
 Example::
 
     nsrmp-bench generate --split paper-v2 --out data/paper --workers 2
+    nsrmp-bench generate --split paper-v2 --out /shared/paper --engine dask \
+        --scheduler tcp://HOST:8786
 
 Each part lands in ``OUT/<part>/`` (shards, ``manifest.json``). The bytes do not depend on
-``--workers`` or the order of generation; a rerun after Ctrl-C or a kill keeps the shards
-already complete. The root hash is compared with the committed manifest in ``splits/``.
+``--engine``, ``--workers`` or the order of generation; a rerun after Ctrl-C, a kill or a
+lost scheduler keeps the shards already complete. The root hash is compared with the
+committed manifest in ``splits/``.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from typing import Any
 
 from rich.console import Console
 
+from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
 from nsrmp_bench.cli.progress import episode_progress
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.split_specs import load_split
@@ -33,7 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, type=Path, help="output directory")
     parser.add_argument("--part", action="append", default=None,
                         help="only this part (repeatable); default: every part")
-    parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    add_engine_arguments(parser, workers=2)
     parser.add_argument("--shard-size", type=int, default=100,
                         help="instances per shard (default 100)")
     parser.add_argument("--limit", type=int, default=None,
@@ -49,47 +53,54 @@ def run(args: argparse.Namespace) -> int:
     for part in parts:
         spec.part(part)  # unknown part: a clear error before any work
     console = Console(stderr=True)
-    status = 0
-    for part in parts:
-        out = args.out / part
-        t0 = time.perf_counter()
-        with episode_progress(disable=args.quiet) as progress:
-            task = progress.add_task(f"{spec.id}/{part}", total=None)
+    with engine_from_args(args) as engine:
+        return max((_generate(gen, spec, part, engine, args, console) for part in parts),
+                   default=0)
 
-            def on_start(total: int, done: int, task: Any = task, progress: Any = progress) -> None:
-                progress.update(task, total=total, completed=done)
 
-            manifest, stats = gen.generate_part(
-                spec, part, out, workers=args.workers, shard_size=args.shard_size,
-                limit=args.limit, on_start=on_start,
-                on_progress=lambda n, task=task, progress=progress: progress.advance(task, n),
-            )
-        wall = time.perf_counter() - t0
-        rate = stats.episodes / wall if stats.episodes else 0.0
-        rejected = sum(stats.reasons.values())
-        console.print(
-            f"{spec.id}/{part}: {manifest.count} episodes in {out} "
-            f"({stats.episodes} generated in {wall:.1f} s, {rate:.1f} ep/s; "
-            f"{rejected} attempts rejected{_reasons(stats)})"
+def _generate(gen: Any, spec: Any, part: str, engine: Any, args: argparse.Namespace,
+              console: Console) -> int:
+    """One part: generate, print the summary, compare with the committed manifest."""
+    out = args.out / part
+    t0 = time.perf_counter()
+    with episode_progress(disable=args.quiet) as progress:
+        task = progress.add_task(f"{spec.id}/{part}", total=None)
+
+        def on_start(total: int, done: int) -> None:
+            progress.update(task, total=total, completed=done)
+
+        manifest, stats = gen.generate_part(
+            spec, part, out, engine=engine, shard_size=args.shard_size,
+            limit=args.limit, on_start=on_start,
+            on_progress=lambda n: progress.advance(task, n),
         )
-        console.print(f"  root hash {manifest.root_hash}")
-        committed = official_manifest(spec.id, part)
-        if committed is not None and args.limit is None:
-            cmp = compare_with_committed(
-                {e.index: (e.hash, e.tolerant) for e in manifest.episodes}, committed)
-            if committed["root_hash"] == manifest.root_hash:
-                console.print("  matches the committed manifest")
-            elif cmp.ok:
-                console.print(
-                    f"  matches the committed manifest: {len(cmp.within_tolerance)} robot "
-                    "episodes differ in bits but agree within its stated tolerances")
-            else:
-                console.print(
-                    "  [red]differs from the committed manifest[/red]: run "
-                    f"`nsrmp-bench verify {out}` to see which episodes and why"
-                )
-                status = 1
-    return status
+    wall = time.perf_counter() - t0
+    rate = stats.episodes / wall if stats.episodes else 0.0
+    rejected = sum(stats.reasons.values())
+    console.print(
+        f"{spec.id}/{part}: {manifest.count} episodes in {out} "
+        f"({stats.episodes} generated in {wall:.1f} s, {rate:.1f} ep/s; "
+        f"{rejected} attempts rejected{_reasons(stats)})"
+    )
+    console.print(f"  root hash {manifest.root_hash}")
+    committed = official_manifest(spec.id, part)
+    if committed is None or args.limit is not None:
+        return 0
+    cmp = compare_with_committed(
+        {e.index: (e.hash, e.tolerant) for e in manifest.episodes}, committed)
+    if committed["root_hash"] == manifest.root_hash:
+        console.print("  matches the committed manifest")
+    elif cmp.ok:
+        console.print(
+            f"  matches the committed manifest: {len(cmp.within_tolerance)} robot "
+            "episodes differ in bits but agree within its stated tolerances")
+    else:
+        console.print(
+            "  [red]differs from the committed manifest[/red]: run "
+            f"`nsrmp-bench verify {out}` to see which episodes and why"
+        )
+        return 1
+    return 0
 
 
 def _reasons(stats: Any) -> str:

@@ -1,0 +1,88 @@
+"""The engine of one machine: a pool of spawned worker processes (``--engine local``).
+
+Spawned, not forked, so that a worker starts with no PyBullet or h5py state of the driver.
+Progress comes back through a manager queue that the driver drains while it waits.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import queue as queue_module
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from typing import Any, TypeVar
+
+from nsrmp_bench.engine.base import Engine, ProgressCallback, run_task
+from nsrmp_bench.engine.progress import ProgressTally, TaskReport
+from nsrmp_bench.errors import InvalidArgument
+
+__all__ = ["LocalPoolEngine"]
+
+R = TypeVar("R")
+_POLL_S = 0.2
+
+
+class _QueueSink:
+    def __init__(self, q: Any) -> None:
+        self.q = q
+
+    def send(self, key: int, count: int) -> None:
+        self.q.put((key, count))
+
+
+def _drain(q: Any, tally: ProgressTally) -> None:
+    while True:
+        try:
+            key, count = q.get_nowait()
+        except queue_module.Empty:
+            return
+        tally.update(key, count)
+
+
+class LocalPoolEngine(Engine):
+    """Up to ``workers`` spawned processes, started per :meth:`map_unordered` call."""
+
+    name = "local"
+
+    def __init__(self, workers: int) -> None:
+        if workers < 1:
+            msg = f"workers must be >= 1, got {workers}; use 1 to run in this process"
+            raise InvalidArgument(msg)
+        self.workers = workers
+
+    def describe(self) -> str:
+        return f"a local pool of {self.workers} process(es)"
+
+    def map_unordered(
+        self,
+        fn: Callable[..., R],
+        tasks: Sequence[tuple[Any, ...]],
+        *,
+        on_progress: ProgressCallback | None = None,
+    ) -> Iterator[tuple[int, R]]:
+        if not tasks:
+            return
+        tally = ProgressTally(on_progress)
+        ctx = mp.get_context("spawn")
+        with ctx.Manager() as manager:
+            q = manager.Queue()
+            sink = _QueueSink(q)
+            with ProcessPoolExecutor(max_workers=min(self.workers, len(tasks)),
+                                     mp_context=ctx) as pool:
+                futures: dict[Future[tuple[R, int]], int] = {
+                    pool.submit(run_task, fn, args, TaskReport(k, sink)): k
+                    for k, args in enumerate(tasks)
+                }
+                pending = set(futures)
+                try:
+                    while pending:
+                        finished, pending = wait(pending, timeout=_POLL_S,
+                                                 return_when=FIRST_COMPLETED)
+                        _drain(q, tally)
+                        for fut in finished:
+                            result, count = fut.result()
+                            tally.finish(futures[fut], count)
+                            yield futures[fut], result
+                finally:
+                    for fut in pending:
+                        fut.cancel()
