@@ -7,7 +7,8 @@ explains the likely cause from the recorded versions (PyBullet, numpy, physics f
 and CPU-dependent kernels (numpy's SIMD features, the BLAS core). Teleport episodes must be
 the same bytes on every machine; robot episodes, which are not bit-stable across CPUs, are
 accepted when they agree within the tolerances their committed manifest states
-(``storage/tolerance.py``).
+(``storage/tolerance.py``). Shards are checked one task each by an engine (this process, a
+local pool or a Dask cluster; ``nsrmp_bench.engine``).
 """
 
 from __future__ import annotations
@@ -21,15 +22,18 @@ import h5py
 
 from nsrmp_bench.canonical import sha256_file
 from nsrmp_bench.dispatch import DISPATCH_KEYS
+from nsrmp_bench.engine import Engine, InlineEngine, TaskReport, in_task_order
 from nsrmp_bench.errors import DataIntegrityError, NSRMPError
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.split_specs import withdrawal
 from nsrmp_bench.storage.hashing import episode_hash, root_hash
 from nsrmp_bench.storage.manifest import read_manifest
 from nsrmp_bench.storage.reader import read_episode
+from nsrmp_bench.storage.records import ShardRecord
 from nsrmp_bench.storage.tolerance import compare_summaries, tolerant_summary
 
-__all__ = ["Comparison", "VerifyReport", "compare_with_committed", "verify"]
+__all__ = ["Comparison", "ShardCheck", "VerifyReport", "check_shard", "compare_with_committed",
+           "verify"]
 
 _SHOW = 10
 
@@ -139,43 +143,73 @@ def compare_with_committed(
     return Comparison(not differ and not missing, differ, within, beyond, missing)
 
 
-def verify(data_dir: str | os.PathLike[str], *, deep: bool = True) -> VerifyReport:
-    """Check ``data_dir`` (a part directory with ``manifest.json``)."""
-    d = Path(data_dir)
+@dataclass(frozen=True)
+class ShardCheck:
+    """What checking one shard found: its episodes' hashes and summaries, and problems."""
+
+    hashes: dict[int, str]
+    summaries: dict[int, dict[str, Any] | None]
+    episodes: int
+    problems: list[str]
+
+
+def check_shard(part_dir: str, shard: ShardRecord, deep: bool, *,
+                report: TaskReport | None = None) -> ShardCheck:
+    """The task of one shard: its sha256, and with ``deep`` every episode's content hash."""
+    path = Path(part_dir) / shard.file
+    if not path.is_file():
+        return ShardCheck({}, {}, 0, [f"{shard.file}: missing; regenerate or re-download it"])
+    problems: list[str] = []
+    if sha256_file(path) != shard.sha256:
+        problems.append(
+            f"{shard.file}: sha256 differs from manifest.json (file changed or truncated)"
+        )
+    if not deep:
+        return ShardCheck({e.index: e.hash for e in shard.episodes},
+                          {e.index: e.tolerant for e in shard.episodes}, 0, problems)
+    hashes: dict[int, str] = {}
+    summaries: dict[int, dict[str, Any] | None] = {}
+    try:
+        with h5py.File(path, "r") as f:
+            group = f["data"]
+            for entry in shard.episodes:
+                episode = read_episode(group[entry.id])
+                h = episode_hash(episode)
+                hashes[entry.index] = h
+                summaries[entry.index] = tolerant_summary(episode)
+                if report is not None:
+                    report.advance()
+                if h != entry.hash:
+                    problems.append(
+                        f"{shard.file}: episode {entry.id} content differs from its "
+                        "manifest hash"
+                    )
+    except (OSError, KeyError, NSRMPError) as exc:
+        problems.append(f"{shard.file}: unreadable ({exc}); regenerate or re-download")
+    return ShardCheck(hashes, summaries, len(hashes), problems)
+
+
+def verify(data_dir: str | os.PathLike[str], *, deep: bool = True,
+           engine: Engine | None = None) -> VerifyReport:
+    """Check ``data_dir`` (a part directory with ``manifest.json``).
+
+    The shards are checked by ``engine`` (entered by the caller; default: this process),
+    one task each; the report is the same whichever engine checks them.
+    """
+    d = Path(data_dir).resolve()
     manifest = read_manifest(d)
-    report = VerifyReport(d, manifest.split)
+    report = VerifyReport(Path(data_dir), manifest.split)
     recomputed: dict[int, str] = {}
     summaries: dict[int, dict[str, Any] | None] = {}
-    for shard in manifest.shards:
-        path = d / shard.file
+    engine = InlineEngine() if engine is None else engine
+    engine.require_shared_dir(d)
+    tasks = [(str(d), shard, deep) for shard in manifest.shards]
+    for check in in_task_order(engine.map_unordered(check_shard, tasks)):
         report.shards += 1
-        if not path.is_file():
-            report.problems.append(f"{shard.file}: missing; regenerate or re-download it")
-            continue
-        if sha256_file(path) != shard.sha256:
-            report.problems.append(
-                f"{shard.file}: sha256 differs from manifest.json (file changed or truncated)"
-            )
-        if not deep:
-            recomputed.update((e.index, e.hash) for e in shard.episodes)
-            summaries.update((e.index, e.tolerant) for e in shard.episodes)
-            continue
-        try:
-            with h5py.File(path, "r") as f:
-                group = f["data"]
-                for entry in shard.episodes:
-                    episode = read_episode(group[entry.id])
-                    h = episode_hash(episode)
-                    recomputed[entry.index] = h
-                    summaries[entry.index] = tolerant_summary(episode)
-                    report.episodes += 1
-                    if h != entry.hash:
-                        report.problems.append(
-                            f"{shard.file}: episode {entry.id} content differs from its "
-                            "manifest hash"
-                        )
-        except (OSError, KeyError, NSRMPError) as exc:
-            report.problems.append(f"{shard.file}: unreadable ({exc}); regenerate or re-download")
+        report.episodes += check.episodes
+        report.problems.extend(check.problems)
+        recomputed.update(check.hashes)
+        summaries.update(check.summaries)
     report.root_hash = root_hash(recomputed.items())
     if report.root_hash != manifest.root_hash and not report.problems:
         report.problems.append("root hash differs from manifest.json although episodes match")

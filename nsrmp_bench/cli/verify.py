@@ -3,9 +3,12 @@
 Example::
 
     nsrmp-bench verify data/paper/test
+    nsrmp-bench verify /shared/paper --engine dask --scheduler tcp://HOST:8786
 
 Recomputes every shard's sha256 and every episode's content hash; names what differs and
 why (the manifests record the simulator and package versions and a physics fingerprint).
+Shards are checked one task each, in this process by default (``--workers N``: a local
+pool; ``--engine dask``: a Dask cluster).
 """
 
 from __future__ import annotations
@@ -15,8 +18,9 @@ from pathlib import Path
 
 from rich.console import Console
 
+from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.verify import verify
+from nsrmp_bench.verify import VerifyReport, verify
 
 __all__ = ["add_arguments", "run"]
 
@@ -27,6 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="part directories (with manifest.json), or a split directory")
     parser.add_argument("--shallow", action="store_true",
                         help="only shard sha256, not every episode's content hash")
+    add_engine_arguments(parser, workers=1)
 
 
 def _part_dirs(path: Path) -> list[Path]:
@@ -46,21 +51,26 @@ def run(args: argparse.Namespace) -> int:
     """Print one verdict per part; exit 1 if anything differs."""
     console = Console()
     status = 0
-    for given in args.data:
-        for d in _part_dirs(given):
-            report = verify(d, deep=not args.shallow)
-            verdict = "[green]OK[/green]" if report.ok else "[red]DIFFERS[/red]"
-            console.print(
-                f"{report.split} ({d}): {verdict}: {report.shards} shards, "
-                f"{report.episodes} episodes rehashed, root {report.root_hash[:16]}"
-            )
-            if report.committed_root_hash is not None and report.ok:
-                console.print("  matches the committed manifest" + (
-                    " (robot episodes within its stated tolerances)"
-                    if report.within_tolerance else ""))
-            for line in report.problems:
-                console.print(f"  - {line}")
-            for line in report.notes:
-                console.print(f"  {line}")
-            status = status or (0 if report.ok else 1)
+    with engine_from_args(args) as engine:
+        for given in args.data:
+            for d in _part_dirs(given):
+                report = verify(d, deep=not args.shallow, engine=engine)
+                _print(console, d, report)
+                status = status or (0 if report.ok else 1)
     return status
+
+
+def _print(console: Console, d: Path, report: VerifyReport) -> None:
+    verdict = "[green]OK[/green]" if report.ok else "[red]DIFFERS[/red]"
+    console.print(
+        f"{report.split} ({d}): {verdict}: {report.shards} shards, "
+        f"{report.episodes} episodes rehashed, root {report.root_hash[:16]}"
+    )
+    if report.committed_root_hash is not None and report.ok:
+        console.print("  matches the committed manifest" + (
+            " (robot episodes within its stated tolerances)"
+            if report.within_tolerance else ""))
+    for line in report.problems:
+        console.print(f"  - {line}")
+    for line in report.notes:
+        console.print(f"  {line}")
