@@ -1,23 +1,24 @@
-"""Replaying many episodes, in this process or in a pool of worker processes.
+"""Replaying many episodes, in this process, a pool of worker processes or a Dask cluster.
 
-Each worker builds one :class:`World` and reuses it for every episode it is given, so an
+Chunks of episodes are tasks handed to an engine (``nsrmp_bench.engine``). Each worker
+process builds one :class:`World` and reuses it for every episode it is given, so an
 episode's result depends only on the episode and the prediction (the World resets its
 contact state per instance). Results come back in task order whatever the worker count.
 """
 
 from __future__ import annotations
 
-import multiprocessing
+import contextlib
 import os
 import re
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from nsrmp_bench.engine import Engine, TaskReport, in_task_order, open_engine
 from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import InvalidArgument, NSRMPError
 from nsrmp_bench.generators.world.replay import (
@@ -105,8 +106,13 @@ def _run_one(task: ReplayTask, profile: str, source: str,
 
 
 def _run_chunk(tasks: Sequence[ReplayTask], profile: str, source: str,
-               render_dir: str | None) -> list[ReplayOutcome]:
-    return [_run_one(t, profile, source, render_dir) for t in tasks]
+               render_dir: str | None, *, report: TaskReport) -> list[ReplayOutcome]:
+    """The task of one chunk of instances, whichever engine runs it."""
+    out = []
+    for t in tasks:
+        out.append(_run_one(t, profile, source, render_dir))
+        report.advance()
+    return out
 
 
 def replay_tasks(
@@ -115,32 +121,34 @@ def replay_tasks(
     profile: str = "fast",
     source: str = "auto",
     workers: int = 1,
+    engine: Engine | None = None,
     render_dir: str | Path | None = None,
     chunk: int = 4,
     progress: Callable[[int], None] | None = None,
 ) -> Iterator[ReplayOutcome]:
-    """Replay every task; outcomes in task order. ``workers > 1`` uses spawned processes."""
+    """Replay every task; outcomes in task order.
+
+    Chunks of ``chunk`` tasks go to ``engine`` (entered by the caller), by default the local
+    one: this process when ``workers`` is 1, else that many spawned processes.
+    """
     get_profile(profile)  # fail early on an unknown profile
     if workers < 1:
         msg = f"workers must be >= 1, got {workers}; use 1 to replay in this process"
         raise InvalidArgument(msg)
-    rdir = None if render_dir is None else str(render_dir)
+    rdir = None if render_dir is None else str(Path(render_dir).resolve())
     if rdir is not None:
         Path(rdir).mkdir(parents=True, exist_ok=True)
     items = list(tasks)
-    if workers == 1:
-        for k, t in enumerate(items):
-            yield _run_one(t, profile, source, rdir)
-            if progress is not None:
-                progress(k + 1)
-        return
-    chunks = [items[i : i + chunk] for i in range(0, len(items), chunk)]
-    ctx = multiprocessing.get_context("spawn")
+    chunks = [(items[i : i + chunk], profile, source, rdir)
+              for i in range(0, len(items), chunk)]
     done = 0
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-        futures = [pool.submit(_run_chunk, c, profile, source, rdir) for c in chunks]
-        for fut in futures:
-            for outcome in fut.result():
+    with contextlib.ExitStack() as stack:
+        if engine is None:
+            engine = stack.enter_context(open_engine("local", workers=workers))
+        if rdir is not None:
+            engine.require_shared_dir(Path(rdir))
+        for outcomes in in_task_order(engine.map_unordered(_run_chunk, chunks)):
+            for outcome in outcomes:
                 done += 1
                 yield outcome
                 if progress is not None:

@@ -4,6 +4,7 @@ Example::
 
     nsrmp-bench replay preds.jsonl --data data/smoke --out preds.robot.jsonl
     nsrmp-bench score preds.robot.jsonl --data data/smoke
+    nsrmp-bench replay preds.jsonl --data /shared/paper/test --out r.jsonl --engine dask
 
 For every predicted instance the episode's initial scene is put into the PyBullet world
 and the Panda carries out the prediction by pick-and-place: a grounded ``program`` step
@@ -27,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.scoring.align import PredictionTable, align
@@ -56,8 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(default auto: the first of these the line has)")
     parser.add_argument("--profile", default="fast", choices=_PROFILES,
                         help="robot motion profile (default fast)")
-    parser.add_argument("--workers", type=int, default=1,
-                        help="worker processes, each with its own PyBullet world (default 1)")
+    add_engine_arguments(parser, workers=1)
     parser.add_argument("--limit", type=int, default=None,
                         help="replay only the first N predicted instances (in data order)")
     parser.add_argument("--report", type=Path, default=None,
@@ -102,9 +103,6 @@ def _tasks(episodes: list[Any], gold: GoldTable, table: PredictionTable,
 
 def run(args: argparse.Namespace) -> int:
     """Replay, write the achieved predictions, report."""
-    if args.workers < 1:
-        msg = f"--workers must be >= 1, got {args.workers}"
-        raise InvalidArgument(msg)
     if args.limit is not None and args.limit < 0:
         msg = f"--limit must be >= 0, got {args.limit}"
         raise InvalidArgument(msg)
@@ -127,16 +125,18 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         for warning in table.warnings:
             print(f"warning: {warning}", file=sys.stderr)
-        print(f"replaying {len(tasks)} instance(s) of {gold.split or table.header.split} "
-              f"with the {args.profile} profile in {args.workers} process(es)", file=sys.stderr)
 
     def progress(done: int) -> None:
         if not args.quiet and (done % 10 == 0 or done == len(tasks)):
             print(f"  {done}/{len(tasks)}", file=sys.stderr)
 
-    outcomes = list(batch.replay_tasks(tasks, profile=args.profile, source=args.source,
-                                       workers=args.workers, render_dir=args.render,
-                                       progress=progress))
+    with engine_from_args(args) as engine:
+        if not args.quiet:
+            print(f"replaying {len(tasks)} instance(s) of {gold.split or table.header.split} "
+                  f"with the {args.profile} profile in {engine.describe()}", file=sys.stderr)
+        outcomes = list(batch.replay_tasks(tasks, profile=args.profile, source=args.source,
+                                           engine=engine, render_dir=args.render,
+                                           progress=progress))
     predictions: list[Prediction] = [o.prediction for o in outcomes]
     failed = [o for o in outcomes if o.error is not None]
     header = SubmissionHeader(
