@@ -78,7 +78,7 @@ class DaskEngine(Engine):
         scheduler: str | None = None,
         *,
         workers: int = 2,
-        connect_timeout_s: float = 20.0,
+        connect_timeout_s: float | None = None,
         lost_grace_s: float = 10.0,
         workers_timeout_s: float = 60.0,
     ) -> None:
@@ -88,6 +88,10 @@ class DaskEngine(Engine):
         self._dd: Any = require("distributed")  # untyped calls: keep them Any
         self.scheduler = scheduler
         self.workers = workers
+        if connect_timeout_s is None:  # Dask's own knob (DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT)
+            dask: Any = require("dask")
+            connect_timeout_s = float(dask.utils.parse_timedelta(
+                dask.config.get("distributed.comm.timeouts.connect"), default="seconds"))
         self.connect_timeout_s = connect_timeout_s
         self.lost_grace_s = lost_grace_s
         self.workers_timeout_s = workers_timeout_s
@@ -229,6 +233,9 @@ class DaskEngine(Engine):
                         ready.extend(finished)
                     except TimeoutError:
                         pass
+                    except CancelledError as exc:  # Dask cancels them all when it loses the
+                        raise self._lost(client.status, len(tasks) - len(pending),  # scheduler
+                                         len(tasks)) from exc
                 while not inbox.empty():
                     tally.update(*inbox.get())
                 if client.status != "running":
@@ -265,8 +272,8 @@ class DaskEngine(Engine):
 
     def _lost(self, status: str, done: int, total: int) -> EngineError:
         msg = (
-            f"the Dask scheduler at {self._address} went away (client {status!r} for more "
-            f"than {self.lost_grace_s:.0f} s) when {done} of {total} tasks had finished; "
+            f"the Dask scheduler at {self._address} went away (client {status!r}) when "
+            f"{done} of {total} tasks had finished; "
             f"expected it to run until the end: start the scheduler and workers again (or "
             f"drop --scheduler for a LocalCluster) and {_RERUN}"
         )

@@ -118,6 +118,17 @@ def test_two_workers_write_the_same_bytes_as_one(data: Path) -> None:
     assert one.read_bytes() == two.read_bytes()
 
 
+@pytest.mark.dask
+def test_a_dask_cluster_writes_the_same_bytes_as_one_process(data: Path) -> None:
+    pytest.importorskip("distributed")
+    oracle = _baseline("oracle", data)
+    one, _ = _replay(oracle, data, "d1.jsonl", "--limit", "6")
+    on_dask, report = _replay(oracle, data, "dask.jsonl", "--limit", "6", "--engine", "dask",
+                              "--workers", "2")  # two chunks, one per worker
+    assert report["totals"]["instances"] == 6
+    assert one.read_bytes() == on_dask.read_bytes()
+
+
 def test_bad_arguments_exit_with_a_message(data: Path, capsys: pytest.CaptureFixture[str]) -> None:
     oracle = _baseline("oracle", data)
     assert main(["replay", str(oracle), "--data", str(data), "--out", str(oracle),
