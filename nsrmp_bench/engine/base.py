@@ -17,7 +17,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, TypeVar
 
-from nsrmp_bench.engine.progress import TaskReport
+from nsrmp_bench.engine.progress import ProgressTally, TaskReport
 
 __all__ = ["Engine", "in_task_order", "run_task"]
 
@@ -40,7 +40,6 @@ class Engine(abc.ABC):
     def describe(self) -> str:
         """Where tasks run, in words (for progress lines and errors)."""
 
-    @abc.abstractmethod
     def map_unordered(
         self,
         fn: Callable[..., R],
@@ -51,6 +50,18 @@ class Engine(abc.ABC):
         """Run ``fn(*tasks[k], report=...)`` for every ``k``; yield ``(k, result)`` as each
         finishes. ``on_progress(n)`` hears of ``n`` more units done (``n`` is negative when a
         task restarts after its worker died). A task's exception is raised here."""
+        if not tasks:
+            return
+        tally = ProgressTally(on_progress)
+        for k, (result, count) in self._run(fn, tasks, tally):
+            tally.finish(k, count)
+            yield k, result
+
+    @abc.abstractmethod
+    def _run(self, fn: Callable[..., Any], tasks: Sequence[tuple[Any, ...]],
+             tally: ProgressTally) -> Iterator[tuple[int, tuple[Any, int]]]:
+        """Run :func:`run_task` for every task; yield ``(k, its return)`` as each finishes,
+        passing running counts to ``tally.update`` meanwhile."""
 
     def require_shared_dir(self, path: Path) -> None:  # noqa: B027 (a default, not abstract)
         """Raise unless every worker sees ``path`` (a directory tasks read or write).

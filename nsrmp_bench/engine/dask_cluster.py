@@ -31,17 +31,15 @@ import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import CancelledError
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 from nsrmp_bench import __version__
 from nsrmp_bench._optional import require
-from nsrmp_bench.engine.base import Engine, ProgressCallback, run_task
+from nsrmp_bench.engine.base import Engine, run_task
 from nsrmp_bench.engine.progress import ProgressTally, TaskReport
 from nsrmp_bench.errors import EngineError, InvalidArgument
 
 __all__ = ["DaskEngine", "software"]
-
-R = TypeVar("R")
 _POLL_S = 0.2
 _TRIM_ENV = "MALLOC_TRIM_THRESHOLD_"
 _TRIM_KEY = f"distributed.nanny.pre-spawn-environ.{_TRIM_ENV}"
@@ -216,15 +214,8 @@ class DaskEngine(Engine):
             raise EngineError(msg)
 
     # -- running -------------------------------------------------------------------
-    def map_unordered(
-        self,
-        fn: Callable[..., R],
-        tasks: Sequence[tuple[Any, ...]],
-        *,
-        on_progress: ProgressCallback | None = None,
-    ) -> Iterator[tuple[int, R]]:
-        if not tasks:
-            return
+    def _run(self, fn: Callable[..., Any], tasks: Sequence[tuple[Any, ...]],
+             tally: ProgressTally) -> Iterator[tuple[int, tuple[Any, int]]]:
         client = self.client
         run_id = uuid.uuid4().hex[:12]
         topic = f"nsrmp-bench-progress-{run_id}"
@@ -236,7 +227,6 @@ class DaskEngine(Engine):
                           key=f"{fn.__name__}-{k}-{run_id}", pure=False): k
             for k, args in enumerate(tasks)
         }
-        tally = ProgressTally(on_progress)
         pending = set(futures)
         ready: list[Any] = []
         lost_at: float | None = None
@@ -245,8 +235,8 @@ class DaskEngine(Engine):
                 if pending:
                     try:
                         with client.as_current():
-                            finished, not_done = self._dd.wait(list(pending), timeout=_POLL_S,
-                                                      return_when="FIRST_COMPLETED")
+                            finished, not_done = self._dd.wait(
+                                list(pending), timeout=_POLL_S, return_when="FIRST_COMPLETED")
                         pending = set(not_done)
                         ready.extend(finished)
                     except TimeoutError:
@@ -266,10 +256,7 @@ class DaskEngine(Engine):
                 while ready:
                     fut = ready.pop()
                     k = futures[fut]
-                    result, count = self._result(fut, tasks[k], len(tasks) - len(pending),
-                                                 len(tasks))
-                    tally.finish(k, count)
-                    yield k, result
+                    yield k, self._result(fut, tasks[k], len(tasks) - len(pending), len(tasks))
         finally:
             if client.status == "running":
                 client.cancel(list(pending))

@@ -3,14 +3,12 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
-from typing import Any, TypeVar
+from typing import Any
 
-from nsrmp_bench.engine.base import Engine, ProgressCallback, run_task
+from nsrmp_bench.engine.base import Engine, run_task
 from nsrmp_bench.engine.progress import ProgressTally, TaskReport
 
 __all__ = ["InlineEngine"]
-
-R = TypeVar("R")
 
 
 class _TallySink:
@@ -29,16 +27,8 @@ class InlineEngine(Engine):
     def describe(self) -> str:
         return "this process"
 
-    def map_unordered(
-        self,
-        fn: Callable[..., R],
-        tasks: Sequence[tuple[Any, ...]],
-        *,
-        on_progress: ProgressCallback | None = None,
-    ) -> Iterator[tuple[int, R]]:
-        tally = ProgressTally(on_progress)
+    def _run(self, fn: Callable[..., Any], tasks: Sequence[tuple[Any, ...]],
+             tally: ProgressTally) -> Iterator[tuple[int, tuple[Any, int]]]:
         sink = _TallySink(tally)
         for k, args in enumerate(tasks):
-            result, count = run_task(fn, args, TaskReport(k, sink, interval=0.0))
-            tally.finish(k, count)
-            yield k, result
+            yield k, run_task(fn, args, TaskReport(k, sink, interval=0.0))

@@ -10,15 +10,13 @@ import multiprocessing as mp
 import queue as queue_module
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from typing import Any, TypeVar
+from typing import Any
 
-from nsrmp_bench.engine.base import Engine, ProgressCallback, run_task
+from nsrmp_bench.engine.base import Engine, run_task
 from nsrmp_bench.engine.progress import ProgressTally, TaskReport
 from nsrmp_bench.errors import InvalidArgument
 
 __all__ = ["LocalPoolEngine"]
-
-R = TypeVar("R")
 _POLL_S = 0.2
 
 
@@ -53,23 +51,15 @@ class LocalPoolEngine(Engine):
     def describe(self) -> str:
         return f"a local pool of {self.workers} process(es)"
 
-    def map_unordered(
-        self,
-        fn: Callable[..., R],
-        tasks: Sequence[tuple[Any, ...]],
-        *,
-        on_progress: ProgressCallback | None = None,
-    ) -> Iterator[tuple[int, R]]:
-        if not tasks:
-            return
-        tally = ProgressTally(on_progress)
+    def _run(self, fn: Callable[..., Any], tasks: Sequence[tuple[Any, ...]],
+             tally: ProgressTally) -> Iterator[tuple[int, tuple[Any, int]]]:
         ctx = mp.get_context("spawn")
         with ctx.Manager() as manager:
             q = manager.Queue()
             sink = _QueueSink(q)
             with ProcessPoolExecutor(max_workers=min(self.workers, len(tasks)),
                                      mp_context=ctx) as pool:
-                futures: dict[Future[tuple[R, int]], int] = {
+                futures: dict[Future[tuple[Any, int]], int] = {
                     pool.submit(run_task, fn, args, TaskReport(k, sink)): k
                     for k, args in enumerate(tasks)
                 }
@@ -80,9 +70,7 @@ class LocalPoolEngine(Engine):
                                                  return_when=FIRST_COMPLETED)
                         _drain(q, tally)
                         for fut in finished:
-                            result, count = fut.result()
-                            tally.finish(futures[fut], count)
-                            yield futures[fut], result
+                            yield futures[fut], fut.result()
                 finally:
                     for fut in pending:
                         fut.cancel()
