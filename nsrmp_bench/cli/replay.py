@@ -111,8 +111,8 @@ def run(args: argparse.Namespace) -> int:
     if args.out.resolve() == args.predictions.resolve():
         msg = f"--out {str(args.out)!r} is the input file; write the replay to another file"
         raise InvalidArgument(msg)
-    batch: Any = importlib.import_module("nsrmp_bench.generators.world.replay_batch")
-    replay: Any = importlib.import_module("nsrmp_bench.generators.world.replay")
+    batch: Any = importlib.import_module("nsrmp_bench.generators.replay.batch")
+    replay: Any = importlib.import_module("nsrmp_bench.generators.replay.episode")
 
     def make_task(ep: Any, *rows: Any) -> Any:
         return batch.ReplayTask(ep, replay.placements_from_rows(*rows))
