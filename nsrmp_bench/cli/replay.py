@@ -33,6 +33,7 @@ from nsrmp_bench.scoring.align import PredictionTable, align
 from nsrmp_bench.scoring.gold import GoldTable, load_episodes
 from nsrmp_bench.scoring.reader import read_submission_pending
 from nsrmp_bench.scoring.submission import Prediction, SubmissionHeader, write_submission
+from nsrmp_bench.storage.split_root import part_of_split
 from nsrmp_bench.vocabulary import ACTIONS
 
 __all__ = ["add_arguments", "run"]
@@ -117,10 +118,10 @@ def run(args: argparse.Namespace) -> int:
     def make_task(ep: Any, *rows: Any) -> Any:
         return batch.ReplayTask(ep, replay.placements_from_rows(*rows))
 
-    raw, recorded = load_episodes(args.data)
+    sub, pending = read_submission_pending(args.predictions)
+    raw, recorded = load_episodes(args.data, part=part_of_split(sub.header.split))
     episodes = list(raw)
     gold = GoldTable.from_episodes(episodes, split=recorded or args.split, source=str(args.data))
-    sub, pending = read_submission_pending(args.predictions)
     table = align(sub, gold, unknown_ids="warn" if args.allow_unknown_ids else "error",
                   pending=pending)
     tasks = list(_tasks(episodes, gold, table, args.limit, make_task))

@@ -16,6 +16,7 @@ from pathlib import Path
 from rich.console import Console
 
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.storage.split_root import split_root_parts
 from nsrmp_bench.verify import verify
 
 __all__ = ["add_arguments", "run"]
@@ -36,10 +37,7 @@ def _part_dirs(path: Path) -> list[Path]:
             "or a split directory holding parts, as written by `nsrmp-bench generate`"
         )
         raise InvalidArgument(msg)
-    if (path / "manifest.json").is_file():
-        return [path]
-    parts = sorted(p for p in path.iterdir() if (p / "manifest.json").is_file())
-    return parts or [path]
+    return [path / p for p in split_root_parts(path)] or [path]
 
 
 def run(args: argparse.Namespace) -> int:
