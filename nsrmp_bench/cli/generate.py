@@ -16,7 +16,6 @@ is unofficial: its manifest holds the spec, and there is no committed manifest t
 from __future__ import annotations
 
 import argparse
-import importlib
 import time
 from pathlib import Path
 from typing import Any
@@ -50,7 +49,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Generate, then print each part's count, time, rate, rejections and root hash."""
-    gen: Any = importlib.import_module("nsrmp_bench.generators.generate")
+    from nsrmp_bench.generators import generate as gen
+
     spec = load_split_file(args.spec) if args.spec is not None else resolve_split(args.split)
     parts = args.part or list(spec.parts)
     for part in parts:
@@ -66,10 +66,12 @@ def run(args: argparse.Namespace) -> int:
             def on_start(total: int, done: int, task: Any = task, progress: Any = progress) -> None:
                 progress.update(task, total=total, completed=done)
 
+            def on_progress(n: int, task: Any = task, progress: Any = progress) -> None:
+                progress.advance(task, n)
+
             manifest, stats = gen.generate_part(
                 spec, part, out, workers=args.workers, shard_size=args.shard_size,
-                limit=args.limit, on_start=on_start,
-                on_progress=lambda n, task=task, progress=progress: progress.advance(task, n),
+                limit=args.limit, on_start=on_start, on_progress=on_progress,
             )
         wall = time.perf_counter() - t0
         rate = stats.episodes / wall if stats.episodes else 0.0

@@ -14,10 +14,8 @@ and place points, 3D positions) that ``check-submission``, ``score``, ``compare`
 from __future__ import annotations
 
 import argparse
-import importlib
 import time
 from pathlib import Path
-from typing import Any
 
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage.split_root import resolve_part
@@ -39,9 +37,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Predict every episode of the part and write the file."""
     from nsrmp_bench.dataset import EpisodeDataset
-
-    writer: Any = importlib.import_module("nsrmp_bench.reference_model.predictions")
-    registry: Any = importlib.import_module("nsrmp_bench.reference_model.registry")
+    from nsrmp_bench.reference_model import predictions as writer
+    from nsrmp_bench.reference_model import registry
 
     if not args.data.exists():
         msg = f"--data {args.data} does not exist; pass a split part's data directory"

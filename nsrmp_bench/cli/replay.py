@@ -18,7 +18,6 @@ writes each instance's moves, per-step success, errors and refusals as JSON.
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import sys
 from collections.abc import Callable, Iterator
@@ -112,8 +111,8 @@ def run(args: argparse.Namespace) -> int:
     if args.out.resolve() == args.predictions.resolve():
         msg = f"--out {str(args.out)!r} is the input file; write the replay to another file"
         raise InvalidArgument(msg)
-    batch: Any = importlib.import_module("nsrmp_bench.generators.replay.batch")
-    replay: Any = importlib.import_module("nsrmp_bench.generators.replay.episode")
+    from nsrmp_bench.generators.replay import batch
+    from nsrmp_bench.generators.replay import episode as replay
 
     def make_task(ep: Any, *rows: Any) -> Any:
         return batch.ReplayTask(ep, replay.placements_from_rows(*rows))
