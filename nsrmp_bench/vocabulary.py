@@ -85,6 +85,10 @@ class Area:
         """Whether the point (x, y) lies inside the rectangle (borders included)."""
         return self.x_min <= x <= self.x_max and self.y_min <= y <= self.y_max
 
+    def to_dict(self) -> dict[str, object]:
+        """Plain JSON-able form: ``{"name", "x": [min, max], "y": [min, max]}``."""
+        return {"name": self.name, "x": [self.x_min, self.x_max], "y": [self.y_min, self.y_max]}
+
 
 MIN_OBJECTS: Final = 3
 """Fewest objects in a scene."""
