@@ -24,7 +24,7 @@ from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.dispatch import dispatch_versions
 from nsrmp_bench.episode import Episode, SeedInfo
 from nsrmp_bench.generators.sampler import AttemptLog, first_valid, sample_symbolic
-from nsrmp_bench.split_specs import SplitSpec, load_split
+from nsrmp_bench.split_specs import SplitSpec, load_split, resolve_split
 from nsrmp_bench.storage.manifest import Manifest
 from nsrmp_bench.storage.records import ShardRecord
 from nsrmp_bench.storage.resume import scan_output, write_manifest
@@ -82,22 +82,20 @@ _WORLD: Any = None
 _QUEUE: Any = None
 
 
-def _init_worker(split_id: str, progress: Any) -> None:
+def _init_worker(spec: SplitSpec, progress: Any) -> None:
     global _WORLD, _QUEUE
     from nsrmp_bench.generators.world.world import World
     from nsrmp_bench.geometry.default_camera import official_camera
 
-    spec = load_split(split_id)
     _WORLD = World(official_camera(*spec.image))
     _QUEUE = progress
 
 
 def _generate_shard(
-    split_id: str, part: str, start: int, stop: int, out_dir: str
+    spec: SplitSpec, part: str, start: int, stop: int, out_dir: str
 ) -> tuple[ShardRecord, AttemptLog]:
-    spec = load_split(split_id)
     stats = AttemptLog()
-    with ShardWriter(out_dir, start, stop, split=f"{split_id}/{part}",
+    with ShardWriter(out_dir, start, stop, split=f"{spec.id}/{part}",
                      package_version=__version__) as writer:
         for i in range(start, stop):
             writer.add(make_episode(spec, part, i, _WORLD, stats))
@@ -174,10 +172,10 @@ def generate_part(
             progress = manager.Queue()
             with ProcessPoolExecutor(
                 max_workers=max(1, min(workers, len(todo))), mp_context=ctx,
-                initializer=_init_worker, initargs=(spec.id, progress),
+                initializer=_init_worker, initargs=(spec, progress),
             ) as pool:
                 pending: set[Future[tuple[ShardRecord, AttemptLog]]] = {
-                    pool.submit(_generate_shard, spec.id, part, a, b, str(out)) for a, b in todo
+                    pool.submit(_generate_shard, spec, part, a, b, str(out)) for a, b in todo
                 }
                 try:
                     while pending:
@@ -194,6 +192,7 @@ def generate_part(
     manifest = write_manifest(
         out, split=f"{spec.id}/{part}", versions=versions(), index_range=(0, count),
         generator=spec.generator, verify=False,
+        spec=None if spec.shipped else spec.to_dict(),
     )
     return manifest, stats
 
@@ -210,14 +209,15 @@ def _drain(progress: Any, on_progress: ProgressCallback | None) -> None:
 
 
 def generate_split(
-    split_id: str,
+    split: str | SplitSpec,
     out_dir: str | os.PathLike[str],
     *,
     parts: list[str] | None = None,
     **kwargs: Any,
 ) -> dict[str, tuple[Manifest, AttemptLog]]:
-    """Generate every part (or ``parts``) of ``split_id`` into ``out_dir/<part>/``."""
-    spec = load_split(split_id)
+    """Generate every part (or ``parts``) of ``split`` (an id, a spec file path, or a
+    :class:`SplitSpec`) into ``out_dir/<part>/``."""
+    spec = split if isinstance(split, SplitSpec) else resolve_split(split)
     names = list(spec.parts) if parts is None else parts
     return {p: generate_part(spec, p, Path(out_dir) / p, **kwargs) for p in names}
 
