@@ -36,6 +36,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="results folder (summary.json, CSVs, predictions/)")
     parser.add_argument("--generate", action="store_true",
                         help="generate the official test parts missing under the root first")
+    parser.add_argument("--splits", nargs="+", default=None, metavar="SPLIT_ID",
+                        help="official split ids to run models and baselines on "
+                             "(default: all official test parts found)")
     parser.add_argument("--workers", type=int, default=2,
                         help="generation workers with --generate (default 2)")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
@@ -67,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     """Evaluate, write the results folder, print the table."""
     say = None if args.quiet else print
     results = evaluate(args.sources, args.data_root, args.out, generate=args.generate,
-                       workers=args.workers, say=say)
+                       splits=args.splits, workers=args.workers, say=say)
     if not args.quiet:
         render_table(results)
         print(f"wrote {args.out / 'summary.json'} and {len(results.splits)} CSV files")
