@@ -28,6 +28,7 @@ _EXTRA_OF: dict[str, str] = {
     "torch": "torch",
     "pooch": "download",
     "pyarrow": "parquet",
+    "matplotlib": "plot",
 }
 
 

@@ -17,9 +17,6 @@ import argparse
 import time
 from pathlib import Path
 
-from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.storage.split_root import resolve_part
-
 __all__ = ["add_arguments", "run"]
 
 
@@ -36,27 +33,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Predict every episode of the part and write the file."""
-    from nsrmp_bench.dataset import EpisodeDataset
-    from nsrmp_bench.reference_model import predictions as writer
-    from nsrmp_bench.reference_model import registry
+    from nsrmp_bench.reference_model.part_prediction import predict_part
 
-    if not args.data.exists():
-        msg = f"--data {args.data} does not exist; pass a split part's data directory"
-        raise InvalidArgument(msg)
     t0 = time.perf_counter()
-    model = registry.load_model(args.model, args.checkpoint)
-    ds = EpisodeDataset(resolve_part(args.data))
-    items = [ds[i] for i in range(len(ds))]
-    first = ds.collection.episode(0, images=False).rendering
-    if first is None:
-        msg = (f"{args.data} holds symbolic episodes without rendering; the learned models "
-               "read the initial image and boxes: generate the split with rendering")
-        raise InvalidArgument(msg)
-    split = ds.collection.split
-    out = writer.write_model_predictions(args.out, split, model.model_id,
-                                  model.predict(items, first.camera),
-                                  {"checkpoint": model.checkpoint.name})
+    model_id, out, count = predict_part(args.model, args.data, args.out, args.checkpoint)
     if not args.quiet:
-        print(f"{model.model_id}: wrote {out} ({len(items)} episodes in "
+        print(f"{model_id}: wrote {out} ({count} episodes in "
               f"{time.perf_counter() - t0:.1f} s)")
     return 0
