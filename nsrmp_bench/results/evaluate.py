@@ -15,7 +15,6 @@ category group of every run, and the predictions files the models and baselines 
 
 from __future__ import annotations
 
-import importlib
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -51,9 +50,9 @@ class Source:
 
 
 def _learned_models() -> dict[str, Any]:
-    registry: Any = importlib.import_module("nsrmp_bench.reference_model.registry")
-    models: dict[str, Any] = registry.MODELS
-    return models
+    from nsrmp_bench.reference_model.registry import MODELS
+
+    return dict(MODELS)
 
 
 def resolve_source(text: str) -> Source:
@@ -110,11 +109,12 @@ def _wanted_parts(splits: Sequence[str] | None) -> list[str]:
 
 def _generate(root: Path, split_part: str, workers: int, say: Say) -> Path:
     require("pybullet")
-    gen: Any = importlib.import_module("nsrmp_bench.generators.generate")
+    from nsrmp_bench.generators.generate import generate_part
+
     split_id, part = split_part.split("/", 1)
     out = root / split_id / part
     say(f"generating {split_part} into {out} ...")
-    gen.generate_part(load_split(split_id), part, out, workers=workers)
+    generate_part(load_split(split_id), part, out, workers=workers)
     return out
 
 
@@ -182,9 +182,9 @@ def evaluate(
                 episodes, recorded = load_episodes(data)
                 run_baseline(source.name, episodes, pred, split=recorded or split_part)
             elif source.kind == "model":
-                part: Any = importlib.import_module(
-                    "nsrmp_bench.reference_model.part_prediction")
-                part.predict_part(source.name, data, pred)
+                from nsrmp_bench.reference_model.part_prediction import predict_part
+
+                predict_part(source.name, data, pred)
             result = score(pred, data, split=split_part)
             runs.append(Run.from_score(result, model=model, kind=kind,
                                        predictions=_relative(pred, folder)))
