@@ -25,7 +25,7 @@ from nsrmp_bench.dispatch import dispatch_versions
 from nsrmp_bench.engine import Engine, TaskReport, open_engine
 from nsrmp_bench.episode import Episode, SeedInfo
 from nsrmp_bench.generators.sampler import AttemptLog, first_valid, sample_symbolic
-from nsrmp_bench.split_specs import SplitSpec, load_split
+from nsrmp_bench.split_specs import SplitSpec, load_split, resolve_split
 from nsrmp_bench.storage.manifest import Manifest
 from nsrmp_bench.storage.records import ShardRecord
 from nsrmp_bench.storage.resume import scan_output, write_manifest
@@ -94,16 +94,17 @@ def _world(image: tuple[int, int]) -> Any:
 
 
 def generate_shard(
-    split_id: str, part: str, start: int, stop: int, out_dir: str, *, report: TaskReport
+    spec: SplitSpec, part: str, start: int, stop: int, out_dir: str, *, report: TaskReport
 ) -> tuple[ShardRecord, AttemptLog]:
-    """The task of one shard: instances ``[start, stop)`` written into ``out_dir``.
+    """The task of one shard: instances ``[start, stop)`` of ``spec``'s ``part`` into ``out_dir``.
 
-    The shard writer's ``*.tmp`` + rename makes it safe to run again after a worker died.
+    The task carries the spec itself (not its id), so a custom spec file runs on any engine,
+    remote workers included. The shard writer's ``*.tmp`` + rename makes it safe to run
+    again after a worker died.
     """
-    spec = load_split(split_id)
     world = _world(spec.image)
     stats = AttemptLog()
-    with ShardWriter(out_dir, start, stop, split=f"{split_id}/{part}",
+    with ShardWriter(out_dir, start, stop, split=f"{spec.id}/{part}",
                      package_version=__version__) as writer:
         for i in range(start, stop):
             writer.add(make_episode(spec, part, i, world, stats))
@@ -183,26 +184,28 @@ def generate_part(
             if engine is None:
                 engine = stack.enter_context(open_engine("local", workers=workers))
             engine.require_shared_dir(out)
-            tasks = [(spec.id, part, a, b, str(out)) for a, b in todo]
+            tasks = [(spec, part, a, b, str(out)) for a, b in todo]
             for _, (_, log) in engine.map_unordered(generate_shard, tasks,
                                                     on_progress=on_progress):
                 stats.merge(log)
     manifest = write_manifest(
         out, split=f"{spec.id}/{part}", versions=versions(), index_range=(0, count),
         generator=spec.generator, verify=False,
+        spec=None if spec.shipped else spec.to_dict(),
     )
     return manifest, stats
 
 
 def generate_split(
-    split_id: str,
+    split: str | SplitSpec,
     out_dir: str | os.PathLike[str],
     *,
     parts: list[str] | None = None,
     **kwargs: Any,
 ) -> dict[str, tuple[Manifest, AttemptLog]]:
-    """Generate every part (or ``parts``) of ``split_id`` into ``out_dir/<part>/``."""
-    spec = load_split(split_id)
+    """Generate every part (or ``parts``) of ``split`` (an id, a spec file path, or a
+    :class:`SplitSpec`) into ``out_dir/<part>/``."""
+    spec = split if isinstance(split, SplitSpec) else resolve_split(split)
     names = list(spec.parts) if parts is None else parts
     return {p: generate_part(spec, p, Path(out_dir) / p, **kwargs) for p in names}
 

@@ -61,7 +61,7 @@ def relational_references(
 ) -> list[Reference]:
     """References through one relation to an attribute-named anchor that pick out ``target``."""
     obj = objects[target]
-    out = []
+    out: list[Reference] = []
     for anchor in range(len(objects)):
         if anchor == target:
             continue

@@ -16,12 +16,16 @@ import numpy as np
 from nsrmp_bench.config import ALL_PAIRS
 from nsrmp_bench.errors import GenerationError, InvalidArgument
 from nsrmp_bench.scene import Pose, Scene, SceneObject, yaw_quaternion
-from nsrmp_bench.vocabulary import EXTENTS, SAMPLING_AREA, TABLE_TOP_Z
+from nsrmp_bench.vocabulary import (
+    EXTENTS,
+    MAX_OBJECTS,
+    MIN_OBJECTS,
+    SAMPLING_AREA,
+    TABLE_TOP_Z,
+)
 
 __all__ = ["ALL_PAIRS", "MAX_OBJECTS", "MIN_GAP", "MIN_OBJECTS", "sample_scene"]
 
-MIN_OBJECTS = 3
-MAX_OBJECTS = 15
 MIN_GAP = 0.012
 """Clearance in metres between the circumscribed footprint circles of two objects."""
 _TRIES_PER_OBJECT = 400

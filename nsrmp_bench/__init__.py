@@ -18,9 +18,9 @@ def __getattr__(name: str) -> object:
 
         return open_episodes
     if name == "load_model":  # the learned models (torch extra)
-        import importlib
+        from nsrmp_bench.reference_model.registry import load_model
 
-        return importlib.import_module("nsrmp_bench.reference_model.registry").load_model
+        return load_model
     if name == "score":
         from nsrmp_bench.scoring.scorer import score
 

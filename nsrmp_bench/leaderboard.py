@@ -12,18 +12,26 @@ from __future__ import annotations
 import json
 import math
 import os
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from nsrmp_bench.canonical import canonical_json
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
 
 __all__ = ["COLUMNS", "Entry", "build", "load_entries", "render_markdown"]
 
 COLUMNS = ("iou_m", "iou", "success", "program_exact", "identification", "placement")
 """The metrics each board shows, headline first."""
+
+
+def _beside(entry_file: Path, relative: str) -> Path:
+    """``relative`` to the entry file's folder, absolute but with symlinks kept (the site
+    links files by their place beside the entries, not where a link points)."""
+    return Path(os.path.normpath((entry_file.parent / relative).absolute()))
 
 
 @dataclass(frozen=True)
@@ -36,6 +44,9 @@ class Entry:
     predictions: Path
     kind: str
     description: str
+    model_card: Path | None = None
+    card: dict[str, Any] = field(default_factory=dict)
+    """Facts the entry states for its model card (see :mod:`nsrmp_bench.results.model_cards`)."""
 
     @classmethod
     def read(cls, path: Path) -> Entry:
@@ -46,9 +57,12 @@ class Entry:
                 name=path.stem,
                 model=str(data["model"]),
                 split=str(data["split"]),
-                predictions=(path.parent / str(data["predictions"])).resolve(),
+                predictions=_beside(path, str(data["predictions"])),
                 kind=str(data.get("kind", "submission")),
                 description=str(data.get("description", "")),
+                model_card=_beside(path, str(data["model_card"]))
+                if "model_card" in data else None,
+                card=dict(data.get("card", {})),
             )
         except (OSError, ValueError, KeyError, TypeError) as exc:
             msg = (
@@ -108,8 +122,15 @@ def build(
     entries_dir: str | os.PathLike[str],
     data_root: str | os.PathLike[str],
     out_dir: str | os.PathLike[str],
+    *,
+    breakdown: bool = False,
+    on_result: Callable[[Entry, ScoreResult], None] | None = None,
 ) -> dict[str, list[dict[str, Any]]]:
-    """Score every entry against ``data_root/<split id>/<part>`` and write the boards."""
+    """Score every entry against ``data_root/<split id>/<part>`` and write the boards.
+
+    ``on_result`` sees each entry's full result (with the per-category breakdown when
+    ``breakdown``; the boards' figures are the same either way).
+    """
     boards: dict[str, list[dict[str, Any]]] = {}
     for entry in load_entries(entries_dir):
         split_id, part = entry.split.split("/", 1)
@@ -120,7 +141,9 @@ def build(
                 f"nsrmp-bench generate --split {split_id} --out {Path(data_root) / split_id}"
             )
             raise InvalidArgument(msg)
-        result = score(entry.predictions, data, breakdown=False)
+        result = score(entry.predictions, data, breakdown=breakdown)
+        if on_result is not None:
+            on_result(entry, result)
         metrics = {}
         for m in COLUMNS:
             value = result.value(m) if m in result.summary.index else float("nan")

@@ -23,6 +23,7 @@ from nsrmp_bench.errors import DownloadError, InvalidArgument
 from nsrmp_bench.official_manifests import official_manifest, official_manifest_text
 from nsrmp_bench.split_specs import list_splits, load_split
 from nsrmp_bench.storage.manifest import read_manifest
+from nsrmp_bench.storage.split_root import split_root_parts
 
 __all__ = ["MIRROR_ENV", "ByteProgress", "RegistryEntry", "download", "pack", "read_registry"]
 
@@ -43,8 +44,7 @@ class RegistryEntry:
 def pack(data_dir: str | os.PathLike[str], out: str | os.PathLike[str]) -> list[RegistryEntry]:
     """Copy a generated split (``data_dir/<part>/``) into ``out/<split>/`` with its registry."""
     src = Path(data_dir)
-    parts = sorted(p for p in src.iterdir() if (p / "manifest.json").is_file()) \
-        if src.is_dir() and not (src / "manifest.json").is_file() else [src]
+    parts = [src / p for p in split_root_parts(src)] or [src]
     if not parts or not (parts[0] / "manifest.json").is_file():
         msg = f"{src} holds no part directory with manifest.json; generate the split first"
         raise InvalidArgument(msg)

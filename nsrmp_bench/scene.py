@@ -8,7 +8,7 @@ from typing import Any
 
 from nsrmp_bench.canonical import content_hash
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.vocabulary import COLOURS, EXTENTS, SHAPES
+from nsrmp_bench.vocabulary import COLOURS, EXTENTS, SHAPES, TARGET_AREA, Area
 
 __all__ = ["Pose", "Quat", "Scene", "SceneObject", "State", "Vec3", "yaw_quaternion"]
 
@@ -99,10 +99,13 @@ class SceneObject:
 
 @dataclass(frozen=True)
 class Scene:
-    """The objects on the table and their initial poses (same order)."""
+    """The objects on the table and their initial poses (same order), and the workspace a
+    moved object's centre must stay in (ours, :data:`~nsrmp_bench.vocabulary.TARGET_AREA`,
+    unless the scene was made elsewhere, e.g. imported from the original NSRM)."""
 
     objects: tuple[SceneObject, ...]
     initial: State
+    workspace: Area = TARGET_AREA
 
     def __post_init__(self) -> None:
         if len(self.objects) != len(self.initial):
@@ -116,13 +119,20 @@ class Scene:
         return len(self.objects)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain JSON-able form."""
-        return {
+        """Plain JSON-able form (``workspace`` only when it is not ours)."""
+        out: dict[str, Any] = {
             "objects": [
                 {**o.to_dict(), **p.to_dict()}
                 for o, p in zip(self.objects, self.initial, strict=True)
             ]
         }
+        if self.workspace != TARGET_AREA:
+            out["workspace"] = self.workspace.to_dict()
+        return out
+
+    def at(self, state: State) -> Scene:
+        """The same objects and workspace with ``state`` as the initial poses."""
+        return Scene(self.objects, state, self.workspace)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Scene:
@@ -133,7 +143,7 @@ class Scene:
             raise InvalidArgument(msg)
         objects = tuple(SceneObject.from_dict(d) for d in items)
         poses = tuple(Pose.from_dict(d) for d in items)
-        return cls(objects, poses)
+        return cls(objects, poses, _workspace(data.get("workspace")))
 
     @property
     def content_hash(self) -> str:
@@ -152,3 +162,20 @@ def state_from_list(data: Any) -> State:
         msg = f"a state must be a list of poses, got {type(data).__name__}"
         raise InvalidArgument(msg)
     return tuple(Pose.from_dict(d) for d in data)
+
+
+def _workspace(data: Any) -> Area:
+    """A scene's stored workspace (ours when absent)."""
+    if data is None:
+        return TARGET_AREA
+    try:
+        (x0, x1), (y0, y1) = data["x"], data["y"]
+        area = Area(str(data["name"]), float(x0), float(x1), float(y0), float(y1))
+    except (KeyError, TypeError, ValueError) as exc:
+        msg = (f"scene.workspace must be {{'name', 'x': [min, max], 'y': [min, max]}} in "
+               f"metres, got {data!r:.80}")
+        raise InvalidArgument(msg) from exc
+    if not (area.x_min < area.x_max and area.y_min < area.y_max):
+        msg = f"scene.workspace {data!r:.80} is empty; each [min, max] needs min < max"
+        raise InvalidArgument(msg)
+    return area

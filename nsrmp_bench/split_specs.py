@@ -5,6 +5,11 @@ stratum is a grid of categories (objects x steps x relational x phrasing); the p
 are the strata's grids in order, and instance ``i`` takes cell ``i mod len(cells)``, so
 every category is balanced to within one instance. Instance ``i`` of a part is then a pure
 function of (spec, part, i).
+
+A spec may also come from a file of the same form (:func:`load_split_file`, or
+:func:`resolve_split` for "an id or a path"): a custom split, e.g. 20,000 training episodes
+or 3-8 objects. It is *unofficial*: validated like the shipped specs, written into its
+manifests, never compared with a committed manifest; its id must not be a shipped one.
 """
 
 from __future__ import annotations
@@ -12,14 +17,18 @@ from __future__ import annotations
 import difflib
 import itertools
 import json
+import os
 import re
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from functools import cache
 from importlib import resources
+from pathlib import Path
 from typing import Any
 
 from nsrmp_bench.config import ALL_PAIRS, EpisodeConfig
 from nsrmp_bench.errors import InvalidArgument, UnknownId
+from nsrmp_bench.vocabulary import MAX_OBJECTS, MIN_OBJECTS
 
 __all__ = [
     "OFFICIAL_SPLITS",
@@ -29,6 +38,8 @@ __all__ = [
     "Stratum",
     "list_splits",
     "load_split",
+    "load_split_file",
+    "resolve_split",
     "withdrawal",
 ]
 
@@ -113,6 +124,14 @@ class SplitSpec:
     image: tuple[int, int]
     held_out_pairs: tuple[tuple[str, str], ...]
     parts: dict[str, PartSpec]
+    source: str | None = None
+    """The spec file of an unofficial split; None for a spec shipped with the package."""
+    raw: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def shipped(self) -> bool:
+        """Whether the spec is one shipped with the package (else a custom spec file)."""
+        return self.source is None
 
     def part(self, name: str) -> PartSpec:
         """The part called ``name``, or UnknownId listing the parts."""
@@ -144,7 +163,8 @@ class SplitSpec:
 
     def to_dict(self) -> dict[str, Any]:
         """The spec as read (its canonical form, stored in manifests)."""
-        return _raw(self.id)
+        out: dict[str, Any] = json.loads(json.dumps(self.raw))
+        return out
 
 
 def _read_text(split_id: str) -> str | None:
@@ -206,20 +226,109 @@ def load_split(split_id: str) -> SplitSpec:
     if data.get("id") != split_id:
         msg = f"{where}: its 'id' is {data.get('id')!r}; it must equal the file name"
         raise InvalidArgument(msg)
+    return _parse(data, where, source=None)
+
+
+def load_split_file(path: str | os.PathLike[str]) -> SplitSpec:
+    """A split spec from a JSON file of the shipped specs' form (an unofficial split).
+
+    A file that repeats a shipped spec exactly is that shipped split; one that reuses a
+    shipped id with other content is refused (give the split its own id).
+    """
+    p = Path(path)
+    try:
+        data = json.loads(p.read_text("utf-8"))
+    except FileNotFoundError as exc:
+        msg = f"split spec file {str(p)!r} does not exist; pass a split id or a spec file path"
+        raise InvalidArgument(msg) from exc
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        msg = (f"split spec file {str(p)!r} is not readable JSON ({exc}); write it like "
+               "the shipped specs (e.g. splits/paper-v2.json)")
+        raise InvalidArgument(msg) from exc
+    if not isinstance(data, dict):
+        msg = f"{p}: a split spec is a JSON object, got {type(data).__name__}"
+        raise InvalidArgument(msg)
+    split_id = data.get("id")
+    if not isinstance(split_id, str) or not SPLIT_ID_RE.match(split_id):
+        msg = (f"{p}: 'id' is {split_id!r}; a split id is name-vN with a lowercase name of "
+               "letters and digits, e.g. 'mysplit-v1'")
+        raise InvalidArgument(msg)
+    if _read_text(split_id) is not None:
+        if data == _raw(split_id):
+            return load_split(split_id)
+        msg = (f"{p}: id {split_id!r} is a shipped split but the spec differs from it; give "
+               f"your split its own id (e.g. 'my{split_id}'), so its data is never taken for "
+               "the official one")
+        raise InvalidArgument(msg)
+    return _parse(data, str(p), source=str(p))
+
+
+def resolve_split(split: str) -> SplitSpec:
+    """A shipped split by id (``paper-v2``), or a spec file by path (``./my-split.json``)."""
+    if split.endswith(".json") or os.sep in split or "/" in split or Path(split).is_file():
+        return load_split_file(split)
+    return load_split(split)
+
+
+def _positive(value: Any, what: str, where: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        msg = f"{where}: {what} is {value!r}; expected a non-negative integer"
+        raise InvalidArgument(msg)
+    return value
+
+
+def _parse(data: Mapping[str, Any], where: str, *, source: str | None) -> SplitSpec:
+    """A :class:`SplitSpec` from a spec's JSON object, every problem named with ``where``."""
+    missing = [k for k in ("id", "description", "image", "parts") if k not in data]
+    if missing:
+        msg = f"{where}: missing keys {missing}; see splits/paper-v2.json for the form"
+        raise InvalidArgument(msg)
+    if not isinstance(data["parts"], dict) or not data["parts"]:
+        msg = f"{where}: 'parts' must map part names (train, val, test) to parts"
+        raise InvalidArgument(msg)
     parts = {}
     for name, part in data["parts"].items():
+        pw = f"{where} parts.{name}"
+        if not isinstance(part, dict) or not {"count", "entropy", "strata"} <= set(part):
+            msg = f"{pw}: a part needs 'count', 'entropy' and 'strata'"
+            raise InvalidArgument(msg)
+        if not isinstance(part["strata"], list) or not part["strata"]:
+            msg = f"{pw}.strata: expected a non-empty list of strata"
+            raise InvalidArgument(msg)
         strata = tuple(
-            Stratum.from_dict(s, f"{where} parts.{name}.strata[{i}]")
-            for i, s in enumerate(part["strata"])
+            Stratum.from_dict(s, f"{pw}.strata[{i}]") for i, s in enumerate(part["strata"])
         )
-        parts[name] = PartSpec(name, int(part["count"]), int(part["entropy"]), strata)
-    return SplitSpec(
-        id=split_id,
+        for i, s in enumerate(strata):
+            bad = [n for n in s.objects if not MIN_OBJECTS <= n <= MAX_OBJECTS]
+            if bad or not s.steps or min(s.steps) < 1 or not s.objects:
+                msg = (f"{pw}.strata[{i}]: objects {list(s.objects)}, steps {list(s.steps)}; "
+                       f"objects must lie in {MIN_OBJECTS}..{MAX_OBJECTS} and steps be >= 1")
+                raise InvalidArgument(msg)
+        count = _positive(part["count"], "count", pw)
+        if count == 0:
+            msg = f"{pw}: count is 0; a part needs at least one instance"
+            raise InvalidArgument(msg)
+        parts[name] = PartSpec(name, count, _positive(part["entropy"], "entropy", pw), strata)
+    try:
+        image = (int(data["image"][0]), int(data["image"][1]))
+        held_out_pairs = tuple((str(s), str(c)) for s, c in data.get("held_out_pairs", ()))
+    except (TypeError, ValueError, IndexError) as exc:
+        msg = (f"{where}: 'image' must be [width, height] and 'held_out_pairs' a list of "
+               f"[shape, colour] ({exc})")
+        raise InvalidArgument(msg) from exc
+    spec = SplitSpec(
+        id=str(data["id"]),
         description=str(data["description"]),
         changes=str(data.get("changes", "")),
         generator=str(data.get("generator", "symbolic-v1")),
         executor=str(data.get("executor", "teleport")),
-        image=(int(data["image"][0]), int(data["image"][1])),
-        held_out_pairs=tuple((str(s), str(c)) for s, c in data.get("held_out_pairs", ())),
+        image=image,
+        held_out_pairs=held_out_pairs,
         parts=parts,
+        source=source,
+        raw=json.loads(json.dumps(data)),
     )
+    for name, ps in parts.items():  # every cell's config validates (relational, phrasing ...)
+        for k in range(min(ps.count, len(ps.cells()))):
+            spec.config(name, k)
+    return spec

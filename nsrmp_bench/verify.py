@@ -25,9 +25,9 @@ from nsrmp_bench.dispatch import DISPATCH_KEYS
 from nsrmp_bench.engine import Engine, InlineEngine, TaskReport, in_task_order
 from nsrmp_bench.errors import DataIntegrityError, NSRMPError
 from nsrmp_bench.official_manifests import official_manifest
-from nsrmp_bench.split_specs import withdrawal
+from nsrmp_bench.split_specs import SplitSpec, withdrawal
 from nsrmp_bench.storage.hashing import episode_hash, root_hash
-from nsrmp_bench.storage.manifest import read_manifest
+from nsrmp_bench.storage.manifest import Manifest, read_manifest
 from nsrmp_bench.storage.reader import read_episode
 from nsrmp_bench.storage.records import ShardRecord
 from nsrmp_bench.storage.tolerance import compare_summaries, tolerant_summary
@@ -189,16 +189,35 @@ def check_shard(part_dir: str, shard: ShardRecord, deep: bool, *,
     return ShardCheck(hashes, summaries, len(hashes), problems)
 
 
-def verify(data_dir: str | os.PathLike[str], *, deep: bool = True,
-           engine: Engine | None = None) -> VerifyReport:
+def _spec_problem(manifest: Manifest, spec: SplitSpec) -> str | None:
+    """Why the data was not generated from ``spec``, or None."""
+    split_id = manifest.split.partition("/")[0]
+    if split_id != spec.id:
+        return f"the data is split {split_id!r}, not {spec.id!r} of {spec.source or spec.id}"
+    if spec.shipped == manifest.official and (spec.shipped or manifest.spec == spec.to_dict()):
+        return None
+    return (f"the spec the data was generated from (in its manifest) differs from "
+            f"{spec.source or spec.id}; regenerate with that spec, or verify against the "
+            "spec it was made from")
+
+
+def verify(
+    data_dir: str | os.PathLike[str], *, deep: bool = True, spec: SplitSpec | None = None,
+    engine: Engine | None = None,
+) -> VerifyReport:
     """Check ``data_dir`` (a part directory with ``manifest.json``).
 
-    The shards are checked by ``engine`` (entered by the caller; default: this process),
-    one task each; the report is the same whichever engine checks them.
+    Data of an unofficial split (generated from a spec file) is checked against its own
+    manifest only; with ``spec`` the manifest's spec must also be that one. The shards are
+    checked by ``engine`` (entered by the caller; default: this process), one task each;
+    the report is the same whichever engine checks them.
     """
     d = Path(data_dir).resolve()
     manifest = read_manifest(d)
     report = VerifyReport(Path(data_dir), manifest.split)
+    wrong_spec = _spec_problem(manifest, spec) if spec is not None else None
+    if wrong_spec is not None:
+        report.problems.append(wrong_spec)
     recomputed: dict[int, str] = {}
     summaries: dict[int, dict[str, Any] | None] = {}
     engine = InlineEngine() if engine is None else engine
@@ -213,6 +232,10 @@ def verify(data_dir: str | os.PathLike[str], *, deep: bool = True,
     report.root_hash = root_hash(recomputed.items())
     if report.root_hash != manifest.root_hash and not report.problems:
         report.problems.append("root hash differs from manifest.json although episodes match")
+    if not manifest.official:
+        report.notes.append(f"unofficial split {manifest.split} (made from a spec file; the "
+                            "spec is in its manifest): no committed manifest to compare")
+        return report
     split_id, _, part = manifest.split.partition("/")
     committed = official_manifest(split_id, part) if part else None
     if committed is None:

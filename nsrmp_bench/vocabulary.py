@@ -15,6 +15,8 @@ __all__ = [
     "COLOURS",
     "COLOUR_RGBA",
     "EXTENTS",
+    "MAX_OBJECTS",
+    "MIN_OBJECTS",
     "PHRASINGS",
     "PLACEMENT_MARGIN",
     "RELATIONS",
@@ -83,6 +85,16 @@ class Area:
         """Whether the point (x, y) lies inside the rectangle (borders included)."""
         return self.x_min <= x <= self.x_max and self.y_min <= y <= self.y_max
 
+    def to_dict(self) -> dict[str, object]:
+        """Plain JSON-able form: ``{"name", "x": [min, max], "y": [min, max]}``."""
+        return {"name": self.name, "x": [self.x_min, self.x_max], "y": [self.y_min, self.y_max]}
+
+
+MIN_OBJECTS: Final = 3
+"""Fewest objects in a scene."""
+
+MAX_OBJECTS: Final = 15
+"""Most objects in a scene (all in view, with the minimum spacing)."""
 
 SAMPLING_AREA: Final = Area("sampling", -0.30, 0.30, -0.20, 0.20)
 """Where initial object centres are sampled."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import torch
@@ -133,5 +133,5 @@ def encode_part(path: str | Path, vocab: Vocabulary | None = None, *, targets: b
     enc = encode_inputs(items, vocab)
     if targets:
         cats = ds.collection.index.set_index("id").to_dict("index")
-        encode_targets(enc, items, cats)
+        encode_targets(enc, items, cast(Mapping[str, Mapping[str, Any]], cats))
     return enc, vocab

@@ -87,8 +87,8 @@ def _worker(worker: int, workers: int, count: int, profile: str, render: bool,
 
 def _work(worker: int, workers: int, count: int, profile: str, render: bool,
           teleport: bool, entropy: int, barrier: Any, queue: Any) -> None:
-    from nsrmp_bench.generators.world.replay import stage_scene
-    from nsrmp_bench.generators.world.robot import execute_program
+    from nsrmp_bench.generators.replay.episode import stage_scene
+    from nsrmp_bench.generators.robot.pick_and_place import execute_program
     from nsrmp_bench.generators.world.world import World
 
     episodes = _episodes(worker, count, workers, entropy)

@@ -14,6 +14,9 @@ Modules (import them by name; this package imports nothing heavy on its own):
 * :mod:`.contact_sheet`: :func:`~.contact_sheet.contact_sheet`, one PNG-able picture of
   an episode (also ``nsrmp-bench show``).
 
+The Panda's pick-and-place lives in its own room, :mod:`nsrmp_bench.generators.robot`, and
+replaying predictions with it in :mod:`nsrmp_bench.generators.replay`.
+
 Choices, with the measurements behind them (``scripts/bench_render.py --breakdown``;
 CPU ms per render, 15 objects, this 2-core machine):
 

@@ -83,7 +83,7 @@ def _panel(cv2: Any, episode: Episode, k: int, scale: int) -> NDArray[np.uint8]:
                     _INK if light else _PAPER, 1, cv2.LINE_AA)
     trajectory = episode.rendering.trajectory
     if trajectory is not None and k > 0:  # the end-effector path of the step that led here
-        from nsrmp_bench.generators.world.robot_path import draw_ee_path
+        from nsrmp_bench.generators.robot.path import draw_ee_path
 
         img = draw_ee_path(img, episode.rendering.camera, trajectory, step=k - 1, scale=scale)
     steps = episode.symbolic.num_steps

@@ -279,10 +279,10 @@ def realise(
     see :meth:`World.render`); ``composite=False`` renders every image in full.
     ``executor`` is ``"teleport"`` (place and settle) or ``"robot"`` (the Panda carries out
     every step by pick-and-place, same checks and renders, trajectory recorded; see
-    :func:`~.robot_realise.realise_with_robot`).
+    :func:`~nsrmp_bench.generators.robot.realise.realise_with_robot`).
     """
     if executor == "robot":
-        from nsrmp_bench.generators.world.robot_realise import realise_with_robot
+        from nsrmp_bench.generators.robot.realise import realise_with_robot
 
         return realise_with_robot(scene, states, grounded, world, min_visible=min_visible,
                                   camera=camera, tolerances=tolerances, render=render,

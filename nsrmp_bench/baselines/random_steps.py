@@ -16,7 +16,6 @@ from nsrmp_bench.dsl.executor import execute_grounded
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import InfeasibleStep
-from nsrmp_bench.scene import Scene
 from nsrmp_bench.scoring.projection import episode_initial_state
 from nsrmp_bench.scoring.submission import Prediction
 
@@ -29,12 +28,12 @@ def random_prediction(episode: Episode, rng: np.random.Generator) -> Prediction:
     state = scene.initial
     steps: list[GroundedStep] = []
     for _ in range(episode.symbolic.num_steps):
-        options = feasible_steps(scene.objects, state)
+        options = feasible_steps(scene.objects, state, scene.workspace)
         if not options:
             break
         step = options[int(rng.integers(len(options)))]
         try:
-            state = execute_grounded(Scene(scene.objects, state), [step]).states[-1]
+            state = execute_grounded(scene.at(state), [step]).states[-1]
         except InfeasibleStep:  # pragma: no cover - feasible_steps checked it
             break
         steps.append(step)

@@ -34,16 +34,20 @@ class Baseline:
     id: str
     description: str
     predict: PredictFn
+    reads: str
+    """What it reads of an episode (its model card's "inputs"); no baseline is trained."""
 
 
 BASELINES: dict[str, Baseline] = {
     b.id: b
     for b in (
         Baseline("oracle-v1", "gold program executed symbolically (upper bound)",
-                 oracle_prediction),
+                 oracle_prediction, "the gold grounded program, the initial poses and the "
+                 "camera (gold targets: an upper bound, not a model)"),
         Baseline("noop-v1", "nothing moves: final boxes = initial boxes (floor)",
-                 noop_prediction),
-        Baseline("random-v1", "a random legal step per gold step", random_prediction),
+                 noop_prediction, "the initial boxes"),
+        Baseline("random-v1", "a random legal step per gold step", random_prediction,
+                 "the initial poses, the camera and the number of gold steps"),
     )
 }
 """Baseline id (``name-vN``) -> baseline."""

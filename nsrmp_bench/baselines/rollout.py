@@ -39,7 +39,7 @@ def execute_leniently(scene: Scene, steps: Sequence[GroundedStep]) -> tuple[list
     forced = 0
     for step in steps:
         try:
-            after = execute_grounded(Scene(scene.objects, states[-1]), [step]).states[-1]
+            after = execute_grounded(scene.at(states[-1]), [step]).states[-1]
         except InfeasibleStep:
             forced += 1
             new = target_pose(scene.objects, states[-1], step.action, step.subject, step.reference)

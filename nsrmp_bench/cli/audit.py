@@ -12,10 +12,8 @@ parts, or held-out combinations / language appear where they must not.
 from __future__ import annotations
 
 import argparse
-import importlib
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 from rich.console import Console
 from rich.table import Table
@@ -37,7 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _from_specs(split_ids: list[str]) -> Iterator[tuple[str, str, SymbolicEpisode]]:
-    sampler: Any = importlib.import_module("nsrmp_bench.generators.sampler")
+    from nsrmp_bench.generators import sampler
+
     for sid in split_ids:
         spec = load_split(sid)
         for part, ps in spec.parts.items():

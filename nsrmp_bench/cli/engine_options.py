@@ -1,6 +1,6 @@
 """The options that choose where a verb's tasks run: ``--engine``, ``--workers``, ``--scheduler``.
 
-Every verb that hands out many tasks (``generate``, ``verify``, ``replay``; later
+Every verb that hands out many tasks (``generate``, ``verify``, ``replay``,
 ``evaluate``) adds them with :func:`add_engine_arguments` and opens the engine with
 :func:`engine_from_args`, so the options mean the same everywhere.
 """

@@ -4,18 +4,21 @@ Examples::
 
     nsrmp-bench info data/paper/test      # what was generated
     nsrmp-bench info paper-v2             # what the spec asks for, per part
+    nsrmp-bench info --spec my-split.json # the same for a custom spec file
 """
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import cast
 
 import pandas as pd
 from rich.console import Console
 from rich.table import Table
 
-from nsrmp_bench.split_specs import SPLIT_ID_RE, load_split
+from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.split_specs import SPLIT_ID_RE, SplitSpec, load_split_file, resolve_split
 
 __all__ = ["add_arguments", "category_frame", "run"]
 
@@ -24,13 +27,23 @@ CATEGORIES = ("steps", "objects", "relational", "relation_needed", "phrasing", "
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
-    parser.add_argument("target", help="a data directory / shard, or a split id like paper-v2")
+    parser.add_argument("target", nargs="?", default=None,
+                        help="a data directory / shard, a split id like paper-v2, or a "
+                             "split spec file (.json)")
+    parser.add_argument("--spec", type=Path, default=None, metavar="PATH",
+                        help="a custom split spec file, instead of TARGET")
 
 
-def category_frame(target: str) -> pd.DataFrame:
-    """One row per instance with its categories (and a ``part`` column)."""
-    if SPLIT_ID_RE.match(target) and not Path(target).exists():
-        spec = load_split(target)
+def category_frame(target: str | SplitSpec) -> pd.DataFrame:
+    """One row per instance with its categories (and a ``part`` column), for a data
+    directory or shard, a split id, a spec file, or a :class:`SplitSpec`."""
+    spec: SplitSpec | None = target if isinstance(target, SplitSpec) else None
+    if isinstance(target, str) and (
+        (SPLIT_ID_RE.match(target) and not Path(target).exists())
+        or (target.endswith(".json") and Path(target).is_file())
+    ):
+        spec = resolve_split(target)
+    if spec is not None:
         rows = []
         for part, ps in spec.parts.items():
             for i in range(ps.count):
@@ -42,9 +55,10 @@ def category_frame(target: str) -> pd.DataFrame:
         return pd.DataFrame(rows)
     from nsrmp_bench.storage.reader import open as open_data
 
-    with open_data(target) as collection:
+    path = cast(str, target)
+    with open_data(path) as collection:
         frame = collection.index.copy()
-    frame["part"] = frame.get("split", target)
+    frame["part"] = frame.get("split", path)
     return frame
 
 
@@ -54,9 +68,18 @@ def _sort_key(value: object) -> tuple[int, float, str]:
 
 def run(args: argparse.Namespace) -> int:
     """Print a table of counts per value for each category."""
-    frame = category_frame(args.target)
+    if (args.target is None) == (args.spec is None):
+        msg = ("give what to count: a data directory, a split id or a spec file as TARGET, "
+               "or --spec PATH (not both)")
+        raise InvalidArgument(msg)
+    target = str(args.spec) if args.spec is not None else args.target
+    spec = None
+    if args.spec is not None or (target.endswith(".json") and Path(target).is_file()):
+        spec = load_split_file(target)
+    frame = category_frame(spec if spec is not None else target)
     console = Console()
-    console.print(f"{args.target}: {len(frame)} instances")
+    unofficial = "" if spec is None or spec.shipped else f" (unofficial split {spec.id})"
+    console.print(f"{target}: {len(frame)} instances{unofficial}")
     for part, sub in frame.groupby("part", sort=True):
         table = Table(title=f"{part} ({len(sub)})")
         table.add_column("category")

@@ -6,7 +6,10 @@ Example::
     nsrmp-bench leaderboard --data data           # data/<split id>/<part>/
 
 Scores every entry of ``leaderboards/entries/`` with the public scorer and writes
-``leaderboards/<split>-<part>.md`` and ``.json``.
+``leaderboards/<split>-<part>.md`` and ``.json``, then the static site
+``leaderboards/site/`` (open ``leaderboards/site/index.html`` from disk): one sortable page
+per board, a model card per entry, ``summary.json``, the generalisation figures (the
+README's) and the paper's tables. The site needs the ``plot`` extra; ``--no-site`` skips it.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import argparse
 from pathlib import Path
 
 from nsrmp_bench.leaderboard import build
+from nsrmp_bench.results.publish import publish
 
 __all__ = ["add_arguments", "run"]
 
@@ -29,11 +33,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="directory of entry files (default: the repository's)")
     parser.add_argument("--out", type=Path, default=_REPO_BOARDS,
                         help="where the boards are written (default: the repository's)")
+    parser.add_argument("--site", type=Path, default=None,
+                        help="where the static site is written (default: OUT/site)")
+    parser.add_argument("--no-site", action="store_true",
+                        help="write the boards only (no site, no figures, no matplotlib)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Build and print where each board went."""
-    boards = build(args.entries, args.data, args.out)
+    if args.no_site:
+        boards = build(args.entries, args.data, args.out)
+    else:
+        boards, written = publish(args.entries, args.data, args.out, args.site)
+        site = args.site if args.site is not None else args.out / "site"
+        print(f"site: {site / 'index.html'} ({len(written)} files)")
     for split, rows in sorted(boards.items()):
         best = rows[0]
         print(f"{split}: {len(rows)} rows -> {args.out / (split.replace('/', '-') + '.md')} "

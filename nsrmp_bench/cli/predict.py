@@ -14,12 +14,8 @@ and place points, 3D positions) that ``check-submission``, ``score``, ``compare`
 from __future__ import annotations
 
 import argparse
-import importlib
 import time
 from pathlib import Path
-from typing import Any
-
-from nsrmp_bench.errors import InvalidArgument
 
 __all__ = ["add_arguments", "run"]
 
@@ -35,44 +31,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
 
-def _part(data: Path) -> Path:
-    if (data / "manifest.json").exists() or data.suffix == ".h5":
-        return data
-    parts = sorted(p.name for p in data.iterdir() if (p / "manifest.json").exists()) \
-        if data.is_dir() else []
-    if parts:
-        msg = (f"{data} is a split root holding the parts: {', '.join(parts)}; pass one "
-               f"part, e.g. --data {data / parts[-1]}")
-        raise InvalidArgument(msg)
-    msg = (f"{data} holds no finished split part (no manifest.json); generate one with "
-           "`nsrmp-bench generate --split ID --out DIR` and pass DIR/PART")
-    raise InvalidArgument(msg)
-
-
 def run(args: argparse.Namespace) -> int:
     """Predict every episode of the part and write the file."""
-    from nsrmp_bench.dataset import EpisodeDataset
+    from nsrmp_bench.reference_model.part_prediction import predict_part
 
-    writer: Any = importlib.import_module("nsrmp_bench.reference_model.predictions")
-    registry: Any = importlib.import_module("nsrmp_bench.reference_model.registry")
-
-    if not args.data.exists():
-        msg = f"--data {args.data} does not exist; pass a split part's data directory"
-        raise InvalidArgument(msg)
     t0 = time.perf_counter()
-    model = registry.load_model(args.model, args.checkpoint)
-    ds = EpisodeDataset(_part(args.data))
-    items = [ds[i] for i in range(len(ds))]
-    first = ds.collection.episode(0, images=False).rendering
-    if first is None:
-        msg = (f"{args.data} holds symbolic episodes without rendering; the learned models "
-               "read the initial image and boxes: generate the split with rendering")
-        raise InvalidArgument(msg)
-    split = ds.collection.split
-    out = writer.write_model_predictions(args.out, split, model.model_id,
-                                  model.predict(items, first.camera),
-                                  {"checkpoint": model.checkpoint.name})
+    model_id, out, count = predict_part(args.model, args.data, args.out, args.checkpoint)
     if not args.quiet:
-        print(f"{model.model_id}: wrote {out} ({len(items)} episodes in "
+        print(f"{model_id}: wrote {out} ({count} episodes in "
               f"{time.perf_counter() - t0:.1f} s)")
     return 0

@@ -19,7 +19,6 @@ writes each instance's moves, per-step success, errors and refusals as JSON.
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import sys
 from collections.abc import Callable, Iterator
@@ -35,6 +34,7 @@ from nsrmp_bench.scoring.align import PredictionTable, align
 from nsrmp_bench.scoring.gold import GoldTable, load_episodes
 from nsrmp_bench.scoring.reader import read_submission_pending
 from nsrmp_bench.scoring.submission import Prediction, SubmissionHeader, write_submission
+from nsrmp_bench.storage.split_root import part_of_split
 from nsrmp_bench.vocabulary import ACTIONS
 
 __all__ = ["add_arguments", "run"]
@@ -109,16 +109,16 @@ def run(args: argparse.Namespace) -> int:
     if args.out.resolve() == args.predictions.resolve():
         msg = f"--out {str(args.out)!r} is the input file; write the replay to another file"
         raise InvalidArgument(msg)
-    batch: Any = importlib.import_module("nsrmp_bench.generators.world.replay_batch")
-    replay: Any = importlib.import_module("nsrmp_bench.generators.world.replay")
+    from nsrmp_bench.generators.replay import batch
+    from nsrmp_bench.generators.replay import episode as replay
 
     def make_task(ep: Any, *rows: Any) -> Any:
         return batch.ReplayTask(ep, replay.placements_from_rows(*rows))
 
-    raw, recorded = load_episodes(args.data)
+    sub, pending = read_submission_pending(args.predictions)
+    raw, recorded = load_episodes(args.data, part=part_of_split(sub.header.split))
     episodes = list(raw)
     gold = GoldTable.from_episodes(episodes, split=recorded or args.split, source=str(args.data))
-    sub, pending = read_submission_pending(args.predictions)
     table = align(sub, gold, unknown_ids="warn" if args.allow_unknown_ids else "error",
                   pending=pending)
     tasks = list(_tasks(episodes, gold, table, args.limit, make_task))

@@ -10,12 +10,11 @@ The same arguments print the same bytes, in any process.
 from __future__ import annotations
 
 import argparse
-import importlib
 import sys
 from pathlib import Path
-from typing import Any
 
 from nsrmp_bench.canonical import canonical_json
+from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.vocabulary import PHRASINGS
 
 __all__ = ["add_arguments", "run"]
@@ -52,8 +51,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the episode's JSON to stdout."""
-    sampler: Any = importlib.import_module("nsrmp_bench.generators.sampler")
-    config = sampler.EpisodeConfig(
+    from nsrmp_bench.generators import sampler
+
+    config = EpisodeConfig(
         objects=args.objects, steps=args.steps, relational=args.relational,
         phrasing=args.phrasing, held_out=args.held_out,
     )
@@ -71,15 +71,14 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _render(args: argparse.Namespace, config: Any, episode_id: str) -> int:
+def _render(args: argparse.Namespace, config: EpisodeConfig, episode_id: str) -> int:
     """Realise the episode (next attempt on a physics rejection) and store it."""
+    from nsrmp_bench.generators import generate as gen
+    from nsrmp_bench.generators.world.world import World
+    from nsrmp_bench.geometry.default_camera import official_camera
     from nsrmp_bench.storage.resume import write_dataset
 
-    gen: Any = importlib.import_module("nsrmp_bench.generators.generate")
-    world_mod: Any = importlib.import_module("nsrmp_bench.generators.world.world")
-    from nsrmp_bench.geometry.default_camera import official_camera
-
-    with world_mod.World(official_camera(args.width, args.height)) as world:
+    with World(official_camera(args.width, args.height)) as world:
         episode = gen.realise_config(config, args.seed, args.index, episode_id, world,
                                      executor=args.executor)
     out = args.render / episode_id

@@ -5,8 +5,10 @@ Example::
     nsrmp-bench score predictions.jsonl --data data/smoke/test --json scores.json
 
 Prints the figures (IoU-M first, with 95% bootstrap intervals and instance counts), IoU-M
-after each step, and the breakdown by steps, objects, relational, phrasing and template;
-``--json`` writes all of it. A malformed file is refused with every problem listed by line.
+after each step, and the breakdown by steps, objects, relational and phrasing
+(``--breakdown all`` adds the rest: relation needed, template); ``--json`` writes all of
+it. A malformed file is refused with every problem listed by line. ``--data`` may be the
+split root ``generate --out`` wrote: the part the header names is read.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nsrmp_bench.scoring.result import BREAKDOWNS
 from nsrmp_bench.scoring.scorer import DEFAULT_N_BOOT, DEFAULT_SEED, score
 
 __all__ = ["add_arguments", "run"]
@@ -43,8 +46,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("predictions", type=Path, help="predictions file (.jsonl or .parquet)")
     add_common(parser)
+    parser.add_argument("--breakdown", choices=BREAKDOWNS, default="short",
+                        help="categories of the printed breakdown: short (steps, objects, "
+                             "relational, phrasing; the default), all (templates too) or "
+                             "none; --json always holds every one")
     parser.add_argument("--no-breakdown", action="store_true",
-                        help="skip the per-category breakdown")
+                        help="skip computing the per-category breakdown")
     parser.add_argument("--no-breakdown-intervals", action="store_true",
                         help="breakdown means and counts only, no intervals (much faster on "
                              "huge splits)")
@@ -61,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
         unknown_ids="warn" if args.allow_unknown_ids else "error",
     )
     if not args.quiet:
-        result.render()
+        result.render(breakdown=args.breakdown)
     if args.json is not None:
         result.write_json(args.json)
     if args.per_instance is not None:

@@ -9,12 +9,11 @@ reads: a shard file or a data directory. Needs the ``sim`` extra (OpenCV).
 from __future__ import annotations
 
 import argparse
-import importlib
 from pathlib import Path
 from typing import Any
 
 from nsrmp_bench._optional import require
-from nsrmp_bench.errors import InvalidArgument, MissingExtra
+from nsrmp_bench.errors import InvalidArgument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -27,20 +26,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scale", type=int, default=2,
                         help="image enlargement factor for legible labels (default 2)")
     parser.add_argument("--columns", type=int, default=3, help="panels per row (default 3)")
-
-
-def _open(path: str) -> Any:
-    try:
-        storage = importlib.import_module("nsrmp_bench.storage")
-    except ImportError as exc:  # pragma: no cover - storage is part of the core
-        msg = f"the storage package cannot be imported ({exc}); reinstall nsrmp-bench"
-        raise MissingExtra(msg) from exc
-    opener = getattr(storage, "open", None)
-    if opener is None:  # pragma: no cover - only before the storage API existed
-        msg = ("nsrmp_bench.storage has no open(path) yet, so stored episodes cannot be "
-               "read; update nsrmp-bench")
-        raise InvalidArgument(msg)
-    return opener(path)
 
 
 def _pick(collection: Any, episode: str | None) -> Any:
@@ -62,13 +47,15 @@ def _pick(collection: Any, episode: str | None) -> Any:
 def run(args: argparse.Namespace) -> int:
     """Write the contact sheet and print where it went."""
     cv2 = require("cv2")
-    sheets: Any = importlib.import_module("nsrmp_bench.generators.world.contact_sheet")
+    from nsrmp_bench.generators.world import contact_sheet as sheets
+    from nsrmp_bench.storage import open as open_storage
+
 
     out = Path(args.png)
     if out.suffix.lower() != ".png":
         msg = f"--png must name a .png file, got {str(out)!r}; e.g. --png sheet.png"
         raise InvalidArgument(msg)
-    collection = _open(args.path)
+    collection = open_storage(args.path)
     try:
         episode = _pick(collection, args.episode)
     finally:

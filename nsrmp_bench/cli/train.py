@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib
 from pathlib import Path
 from typing import Any
 
@@ -37,10 +36,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _config(entry_id: str, overrides: list[str]) -> Any:
-    mod: Any = importlib.import_module("nsrmp_bench.reference_model.nsrm.config")
-    cfg = mod.NSRMConfig()
+    from nsrmp_bench.reference_model.nsrm.config import NSRMConfig
+
+    cfg = NSRMConfig()
     fields = {f.name: f for f in dataclasses.fields(cfg)}
-    changes: dict[str, object] = {}
+    changes: dict[str, Any] = {}
     for item in overrides:
         key, sep, value = item.partition("=")
         if not sep or key not in fields:
@@ -58,7 +58,8 @@ def _config(entry_id: str, overrides: list[str]) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     """Train and report where the checkpoint is."""
-    registry: Any = importlib.import_module("nsrmp_bench.reference_model.registry")
+    from nsrmp_bench.reference_model import registry
+
     entry = registry.get_model(args.model)
     if args.seed < 0:
         msg = f"--seed must be a non-negative integer, got {args.seed}"

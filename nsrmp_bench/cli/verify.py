@@ -20,6 +20,8 @@ from rich.console import Console
 
 from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.split_specs import load_split_file
+from nsrmp_bench.storage.split_root import split_root_parts
 from nsrmp_bench.verify import VerifyReport, verify
 
 __all__ = ["add_arguments", "run"]
@@ -29,6 +31,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("data", type=Path, nargs="+",
                         help="part directories (with manifest.json), or a split directory")
+    parser.add_argument("--spec", type=Path, default=None, metavar="PATH",
+                        help="a custom split's spec file: the data must have been made "
+                             "from it")
     parser.add_argument("--shallow", action="store_true",
                         help="only shard sha256, not every episode's content hash")
     add_engine_arguments(parser, workers=1)
@@ -41,20 +46,18 @@ def _part_dirs(path: Path) -> list[Path]:
             "or a split directory holding parts, as written by `nsrmp-bench generate`"
         )
         raise InvalidArgument(msg)
-    if (path / "manifest.json").is_file():
-        return [path]
-    parts = sorted(p for p in path.iterdir() if (p / "manifest.json").is_file())
-    return parts or [path]
+    return [path / p for p in split_root_parts(path)] or [path]
 
 
 def run(args: argparse.Namespace) -> int:
     """Print one verdict per part; exit 1 if anything differs."""
     console = Console()
+    spec = load_split_file(args.spec) if args.spec is not None else None
     status = 0
     with engine_from_args(args) as engine:
         for given in args.data:
             for d in _part_dirs(given):
-                report = verify(d, deep=not args.shallow, engine=engine)
+                report = verify(d, deep=not args.shallow, spec=spec, engine=engine)
                 _print(console, d, report)
                 status = status or (0 if report.ok else 1)
     return status

@@ -19,7 +19,7 @@ from collections.abc import Callable, Sequence
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.errors import InfeasibleStep, InvalidArgument
 from nsrmp_bench.scene import Pose, SceneObject, State
-from nsrmp_bench.vocabulary import ACTIONS, PLACEMENT_MARGIN, TABLE_TOP_Z, TARGET_AREA
+from nsrmp_bench.vocabulary import ACTIONS, PLACEMENT_MARGIN, TABLE_TOP_Z, TARGET_AREA, Area
 
 __all__ = [
     "CHECKS",
@@ -104,16 +104,20 @@ def target_pose(
 
 
 # -- named checks: each returns a reason code, or None when the step passes -----------
-StepCheck = Callable[[Sequence[SceneObject], State, GroundedStep], "str | None"]
+StepCheck = Callable[[Sequence[SceneObject], State, GroundedStep, Area], "str | None"]
 
 
-def is_self_move(objects: Sequence[SceneObject], state: State, step: GroundedStep) -> str | None:
+def is_self_move(
+    objects: Sequence[SceneObject], state: State, step: GroundedStep,
+    workspace: Area = TARGET_AREA,
+) -> str | None:
     """The step moves an object relative to itself."""
     return "self_move" if step.subject == step.reference else None
 
 
 def subject_covered(
-    objects: Sequence[SceneObject], state: State, step: GroundedStep
+    objects: Sequence[SceneObject], state: State, step: GroundedStep,
+    workspace: Area = TARGET_AREA,
 ) -> str | None:
     """Something rests on the object to move, so it cannot be picked up."""
     covered = any(rests_on(objects, state, j, step.subject) for j in range(len(objects)))
@@ -121,7 +125,8 @@ def subject_covered(
 
 
 def reference_covered(
-    objects: Sequence[SceneObject], state: State, step: GroundedStep
+    objects: Sequence[SceneObject], state: State, step: GroundedStep,
+    workspace: Area = TARGET_AREA,
 ) -> str | None:
     """A ``top`` step onto an object that already carries another object."""
     if step.action != "top":
@@ -135,7 +140,8 @@ def reference_covered(
 
 
 def moves_onto_support(
-    objects: Sequence[SceneObject], state: State, step: GroundedStep
+    objects: Sequence[SceneObject], state: State, step: GroundedStep,
+    workspace: Area = TARGET_AREA,
 ) -> str | None:
     """A ``top`` step onto the object the subject already rests on (or one below it)."""
     if step.action != "top":
@@ -153,21 +159,29 @@ def moves_onto_support(
     return None
 
 
-def too_high(objects: Sequence[SceneObject], state: State, step: GroundedStep) -> str | None:
+def too_high(
+    objects: Sequence[SceneObject], state: State, step: GroundedStep,
+    workspace: Area = TARGET_AREA,
+) -> str | None:
     """A ``top`` step that would make a stack taller than :data:`MAX_STACK`."""
     if step.action != "top":
         return None
     return "too_high" if _stack_level(objects, state, step.reference) + 1 > MAX_STACK else None
 
 
-def off_table(objects: Sequence[SceneObject], state: State, step: GroundedStep) -> str | None:
-    """The target centre falls outside the target area (off the table or out of view)."""
+def off_table(
+    objects: Sequence[SceneObject], state: State, step: GroundedStep,
+    workspace: Area = TARGET_AREA,
+) -> str | None:
+    """The target centre falls outside the scene's workspace (ours: off the table or out of
+    view)."""
     x, y, _ = target_pose(objects, state, step.action, step.subject, step.reference).position
-    return None if TARGET_AREA.contains(x, y) else "off_table"
+    return None if workspace.contains(x, y) else "off_table"
 
 
 def changes_nothing(
-    objects: Sequence[SceneObject], state: State, step: GroundedStep
+    objects: Sequence[SceneObject], state: State, step: GroundedStep,
+    workspace: Area = TARGET_AREA,
 ) -> str | None:
     """The target is where the subject already is."""
     t = target_pose(objects, state, step.action, step.subject, step.reference).position
@@ -176,7 +190,8 @@ def changes_nothing(
 
 
 def target_occupied(
-    objects: Sequence[SceneObject], state: State, step: GroundedStep
+    objects: Sequence[SceneObject], state: State, step: GroundedStep,
+    workspace: Area = TARGET_AREA,
 ) -> str | None:
     """The subject at its target would overlap another object (other than its support)."""
     t = target_pose(objects, state, step.action, step.subject, step.reference)
@@ -218,23 +233,30 @@ _FIXES = {
 }
 
 
-def step_problem(objects: Sequence[SceneObject], state: State, step: GroundedStep) -> str | None:
-    """The first failed check's reason code, or None when the step is legal."""
+def step_problem(
+    objects: Sequence[SceneObject], state: State, step: GroundedStep,
+    workspace: Area = TARGET_AREA,
+) -> str | None:
+    """The first failed check's reason code, or None when the step is legal in
+    ``workspace`` (the scene's; ours by default)."""
     n = len(objects)
     for idx in (step.subject, step.reference):
         if not 0 <= idx < n:
             msg = f"object index {idx} out of range; the scene has objects 0..{n - 1}"
             raise InvalidArgument(msg)
     for check in CHECKS:
-        reason = check(objects, state, step)
+        reason = check(objects, state, step, workspace)
         if reason is not None:
             return reason
     return None
 
 
-def apply_step(objects: Sequence[SceneObject], state: State, step: GroundedStep) -> State:
+def apply_step(
+    objects: Sequence[SceneObject], state: State, step: GroundedStep,
+    workspace: Area = TARGET_AREA,
+) -> State:
     """The state after ``step``; raises :class:`InfeasibleStep` if a check fails."""
-    reason = step_problem(objects, state, step)
+    reason = step_problem(objects, state, step, workspace)
     if reason is not None:
         msg = (
             f"step {step.action}({step.subject} -> {step.reference}) is not possible: "
@@ -245,13 +267,15 @@ def apply_step(objects: Sequence[SceneObject], state: State, step: GroundedStep)
     return tuple(new if i == step.subject else p for i, p in enumerate(state))
 
 
-def feasible_steps(objects: Sequence[SceneObject], state: State) -> list[GroundedStep]:
+def feasible_steps(
+    objects: Sequence[SceneObject], state: State, workspace: Area = TARGET_AREA
+) -> list[GroundedStep]:
     """Every legal single step in ``state``, in (action, subject, reference) order."""
     out = []
     for action in ACTIONS:
         for s in range(len(objects)):
             for r in range(len(objects)):
                 step = GroundedStep(action, s, r)
-                if s != r and step_problem(objects, state, step) is None:
+                if s != r and step_problem(objects, state, step, workspace) is None:
                     out.append(step)
     return out

@@ -18,7 +18,7 @@ from nsrmp_bench.dsl.actions import apply_step
 from nsrmp_bench.dsl.program import GroundedStep, Node, Program
 from nsrmp_bench.dsl.relations import related
 from nsrmp_bench.errors import AmbiguousReference, InfeasibleStep, InvalidReference
-from nsrmp_bench.scene import Scene, SceneObject, State
+from nsrmp_bench.scene import Scene, State
 
 __all__ = ["HANDLERS", "Execution", "execute", "execute_grounded", "resolve"]
 
@@ -39,10 +39,11 @@ class Execution:
 class _Context:
     """What handlers see: the program, the objects, and an evaluator for other nodes."""
 
-    def __init__(self, program: Program, objects: Sequence[SceneObject], initial: State):
+    def __init__(self, program: Program, scene: Scene):
         self.program = program
-        self.objects = objects
-        self.initial = initial
+        self.objects = scene.objects
+        self.initial = scene.initial
+        self.workspace = scene.workspace
         self._memo: dict[tuple[int, int], Any] = {}
         self.step = 0
 
@@ -105,7 +106,7 @@ def _move(ctx: _Context, node: Node, index: int, state: State) -> Execution:
     reference: int = ctx.eval(node.inputs[2], current)
     step = GroundedStep(node.params[0], subject, reference)
     try:
-        after = apply_step(ctx.objects, current, step)
+        after = apply_step(ctx.objects, current, step, ctx.workspace)
     except InfeasibleStep as exc:
         msg = f"step {ctx.step + 1}: {exc}"
         raise InfeasibleStep(msg) from exc
@@ -125,14 +126,14 @@ HANDLERS: dict[str, Handler] = {
 
 def execute(program: Program, scene: Scene) -> Execution:
     """Run ``program`` on ``scene`` from its initial state."""
-    ctx = _Context(program, scene.objects, scene.initial)
+    ctx = _Context(program, scene)
     result: Execution = ctx.eval(len(program.nodes) - 1, scene.initial)
     return result
 
 
 def resolve(program: Program, node_index: int, scene: Scene, state: State) -> Any:
     """Evaluate one node of ``program`` (e.g. a reference's ``unique``) on ``state``."""
-    return _Context(program, scene.objects, scene.initial).eval(node_index, state)
+    return _Context(program, scene).eval(node_index, state)
 
 
 def execute_grounded(scene: Scene, steps: Sequence[GroundedStep]) -> Execution:
@@ -140,7 +141,7 @@ def execute_grounded(scene: Scene, steps: Sequence[GroundedStep]) -> Execution:
     states = [scene.initial]
     for k, step in enumerate(steps):
         try:
-            states.append(apply_step(scene.objects, states[-1], step))
+            states.append(apply_step(scene.objects, states[-1], step, scene.workspace))
         except InfeasibleStep as exc:
             msg = f"step {k + 1}: {exc}"
             raise InfeasibleStep(msg) from exc

@@ -1,11 +1,10 @@
 """Where a verb's many independent tasks run: here, a local process pool, or a Dask cluster.
 
 ``generate`` hands out one task per shard range, ``verify`` one per shard, ``replay`` one
-per chunk of instances; each uses :func:`open_engine` (the CLI's ``--engine``, ``--workers``
-and ``--scheduler``, see ``nsrmp_bench/cli/engine_options.py``) and
-:meth:`Engine.map_unordered`. What a task writes, and so the bytes, does not depend on the
-engine. A new verb (``evaluate``) takes the same options and hands its tasks to the same
-engines.
+per chunk of instances, ``evaluate`` one per (source, split part) run; each uses
+:func:`open_engine` (the CLI's ``--engine``, ``--workers`` and ``--scheduler``, see
+``nsrmp_bench/cli/engine_options.py``) and :meth:`Engine.map_unordered`. What a task
+writes, and so the bytes, does not depend on the engine.
 """
 
 from __future__ import annotations

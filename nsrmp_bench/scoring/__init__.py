@@ -22,6 +22,7 @@ from nsrmp_bench.scoring.submission import (
     load_schema,
     write_submission,
 )
+from nsrmp_bench.scoring.validate import parse_predictions
 from nsrmp_bench.scoring.version import SCORER_ID, SUBMISSION_FORMAT_VERSION
 
 __all__ = [
@@ -39,6 +40,7 @@ __all__ = [
     "compare",
     "load_gold",
     "load_schema",
+    "parse_predictions",
     "read_submission",
     "score",
     "write_submission",

@@ -1,11 +1,14 @@
 """Matching a checked submission to a split's instances: the checks that need the gold.
 
-:func:`align` refuses (with one :class:`~nsrmp_bench.errors.SubmissionError` naming every
-line) a submission for another split, ids that are not in the split, wrong object or step
-counts, and boxes or points outside the image. Coordinates at most ``clip_tolerance``
-pixels outside the image are clipped onto it and counted (gold amodal boxes are clipped
-the same way). Instances without a line are *missing*: they stay in the table, flagged,
-and score zero.
+:func:`align` runs the named checks below in order and refuses (with one
+:class:`~nsrmp_bench.errors.SubmissionError` naming every line) a submission for another
+split (:func:`check_split`), ids that are not in the split (:func:`check_ids`), wrong
+object counts (:func:`check_object_counts`), and boxes or points outside the image
+(:func:`check_box_bounds`, :func:`check_point_bounds`). Coordinates at most
+``clip_tolerance`` pixels outside the image are clipped onto it and counted (gold amodal
+boxes are clipped the same way); step boxes for another number of steps are ignored and
+counted (:func:`other_step_count`). Instances without a line are *missing*: they stay in
+the table, flagged, and score zero (:func:`lay_out`).
 """
 
 from __future__ import annotations
@@ -21,7 +24,21 @@ from nsrmp_bench.scoring.ragged import gather_rows, offsets_from_lengths, row_id
 from nsrmp_bench.scoring.submission import Submission, SubmissionHeader
 from nsrmp_bench.scoring.validate import MAX_SHOWN, Problems
 
-__all__ = ["CLIP_TOLERANCE", "PredictionTable", "align", "split_matches"]
+__all__ = [
+    "CLIP_TOLERANCE",
+    "CheckedRecords",
+    "Matching",
+    "PredictionTable",
+    "align",
+    "check_box_bounds",
+    "check_ids",
+    "check_object_counts",
+    "check_point_bounds",
+    "check_split",
+    "lay_out",
+    "other_step_count",
+    "split_matches",
+]
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -83,33 +100,50 @@ def _bounds(
     return far, out
 
 
-def align(
-    submission: Submission,
-    gold: GoldTable,
-    *,
-    unknown_ids: str = "error",
-    clip_tolerance: float = CLIP_TOLERANCE,
-    pending: Problems | None = None,
-) -> PredictionTable:
-    """Lay ``submission`` out like ``gold``, or raise SubmissionError naming every problem.
+@dataclass(frozen=True, eq=False)
+class Matching:
+    """A submission's records against the gold: which instance each record is for."""
 
-    ``unknown_ids="warn"`` ignores lines whose id is not in the split, counting and
-    listing them in the warnings instead of refusing the file. ``pending`` holds problems
-    already found in the file (see ``read_submission_pending``); they are raised together
-    with these.
-    """
-    if unknown_ids not in ("error", "warn"):
-        msg = f"unknown_ids must be 'error' or 'warn', got {unknown_ids!r}"
-        raise InvalidArgument(msg)
-    sub = submission
-    problems = pending if pending is not None else Problems(sub.source)
-    warnings: list[str] = []
+    sub: Submission
+    gold: GoldTable
+    gold_row: I64  # (R,) the gold instance of each record, -1 for an id not in the split
+
+    @classmethod
+    def of(cls, sub: Submission, gold: GoldTable) -> Matching:
+        """Look every record's id up in ``gold``."""
+        rows = np.array([gold.index.get(i, -1) for i in sub.ids], dtype=np.int64)
+        return cls(sub, gold, rows)
+
+    @property
+    def known(self) -> B:
+        """(R,) the record's id is an instance of the split."""
+        out: B = self.gold_row >= 0
+        return out
+
+    @property
+    def safe_row(self) -> I64:
+        """(R,) the gold instance, 0 for unknown ids (index with :attr:`known`)."""
+        out: I64 = np.where(self.known, self.gold_row, 0)
+        return out
+
+    @property
+    def image_size(self) -> F64:
+        """(R, 2) width and height of each record's instance."""
+        out: F64 = self.gold.image_size[self.safe_row].astype(np.float64)
+        return out
+
+
+def check_split(sub: Submission, gold: GoldTable, problems: Problems,
+                warnings: list[str]) -> None:
+    """Refuse a file whose header names another split (at once, with what else was found);
+    warn when the data records no split id to check against."""
     if gold.split is None:
         warnings.append(
             f"the data records no split id, so the header's split {sub.header.split!r} was "
             "not checked against it"
         )
-    elif not split_matches(sub.header.split, gold.split):
+        return
+    if not split_matches(sub.header.split, gold.split):
         msg = (
             f"{sub.source}: the header says split {sub.header.split!r} but the data is split "
             f"{gold.split!r}; score the file against {sub.header.split!r} data, or predict on "
@@ -119,31 +153,37 @@ def align(
             msg += "\n" + problems.message()
         raise SubmissionError(msg)
 
-    n_rec = len(sub)
-    rec_g = np.array([gold.index.get(i, -1) for i in sub.ids], dtype=np.int64)
-    unknown = np.flatnonzero(rec_g < 0)
-    split_name = gold.split or "the data"
-    if len(unknown):
-        if unknown_ids == "error":
-            for r in unknown[:MAX_SHOWN].tolist():
-                problems.add(
-                    sub.where(r),
-                    f"id {sub.ids[r]!r} is not an instance of {split_name}; remove the line "
-                    "(or score with unknown ids ignored: --allow-unknown-ids)",
-                )
-            problems.count += len(unknown) - min(len(unknown), MAX_SHOWN)
-        else:
-            shown = ", ".join(sub.where(r) for r in unknown[:10].tolist())
-            more = f" and {len(unknown) - 10} more" if len(unknown) > 10 else ""
-            warnings.append(
-                f"{len(unknown)} line(s) with ids not in {split_name} were ignored: "
-                f"{shown}{more}"
-            )
 
-    known = rec_g >= 0
-    g_safe = np.where(known, rec_g, 0)
-    n_obj_gold = gold.n_objects[g_safe]
-    bad_count = known & (sub.n_objects != n_obj_gold)
+def check_ids(m: Matching, unknown_ids: str, problems: Problems,
+              warnings: list[str]) -> I64:
+    """Records whose id is not in the split: problems, or (``"warn"``) ignored and listed."""
+    sub = m.sub
+    unknown: I64 = np.flatnonzero(~m.known)
+    split_name = m.gold.split or "the data"
+    if not len(unknown):
+        return unknown
+    if unknown_ids == "error":
+        for r in unknown[:MAX_SHOWN].tolist():
+            problems.add(
+                sub.where(r),
+                f"id {sub.ids[r]!r} is not an instance of {split_name}; remove the line "
+                "(or score with unknown ids ignored: --allow-unknown-ids)",
+            )
+        problems.count += len(unknown) - min(len(unknown), MAX_SHOWN)
+    else:
+        shown = ", ".join(sub.where(r) for r in unknown[:10].tolist())
+        more = f" and {len(unknown) - 10} more" if len(unknown) > 10 else ""
+        warnings.append(
+            f"{len(unknown)} line(s) with ids not in {split_name} were ignored: {shown}{more}"
+        )
+    return unknown
+
+
+def check_object_counts(m: Matching, problems: Problems) -> B:
+    """Records with one box per object of their instance (the others are problems)."""
+    sub = m.sub
+    n_obj_gold = m.gold.n_objects[m.safe_row]
+    bad_count = m.known & (sub.n_objects != n_obj_gold)
     for r in np.flatnonzero(bad_count)[:MAX_SHOWN].tolist():
         problems.add(
             sub.where(r),
@@ -152,84 +192,101 @@ def align(
             "object order",
         )
     problems.count += max(0, int(bad_count.sum()) - MAX_SHOWN)
-    ok = known & ~bad_count
-    n_steps_gold = gold.n_steps[g_safe]
-    # Step boxes for another number of steps than the gold (a model that split the
-    # instruction differently) cannot be compared step by step: they are ignored, so the
-    # per-step IoU-M counts those steps as failures, and counted; the file still scores.
-    other_count = ok & sub.has_step_boxes & (sub.n_step_states != n_steps_gold)
-    use_sb = sub.has_step_boxes & ~other_count
+    ok: B = m.known & ~bad_count
+    return ok
 
-    # Image bounds: far outside is an error; slightly outside is clipped and counted.
-    size = gold.image_size[g_safe].astype(np.float64)
-    clipped = 0
-    boxes = sub.boxes.copy()
-    step_boxes = sub.step_boxes.copy()
-    pick = sub.pick.copy()
-    place = sub.place.copy()
-    checks: list[tuple[str, F64, I64, I64 | None]] = [
-        ("boxes", boxes, sub.obj_offsets, None),
-        ("step_boxes", step_boxes, sub.stepbox_offsets, sub.n_objects),
-    ]
-    for name, arr, offsets, per_state in checks:
-        rec = row_ids(offsets)
-        rows_ok = ok[rec]
-        far, out = _bounds(arr, size[rec, 0], size[rec, 1], clip_tolerance)
-        far &= rows_ok
-        for row in np.flatnonzero(far)[:MAX_SHOWN].tolist():
-            r = int(rec[row])
-            k = row - int(offsets[r])
-            path = f"{name}[{k}]"
-            if per_state is not None:
-                path = f"{name}[{k // int(per_state[r])}][{k % int(per_state[r])}]"
-            w, h = (int(v) for v in size[r])
-            problems.add(
-                sub.where(r),
-                f"{path} = {[float(v) for v in arr[row]]} lies outside the {w}x{h} image; "
-                f"boxes are pixel [x1, y1, x2, y2] with 0 <= x <= {w} and 0 <= y <= {h} "
-                "(scale normalised coordinates to pixels; clip boxes to the image)",
-            )
-        problems.count += max(0, int(far.sum()) - MAX_SHOWN)
-        fix = out & rows_ok & ~far
-        if fix.any():
-            clipped += int(fix.sum())
-            wx = size[rec[fix], 0][:, None]
-            hy = size[rec[fix], 1][:, None]
-            arr[fix, 0::2] = np.clip(arr[fix, 0::2], 0.0, wx)
-            arr[fix, 1::2] = np.clip(arr[fix, 1::2], 0.0, hy)
-    points = (
-        ("pick", pick, ~np.isnan(sub.pick[:, 0])),
-        ("place", place, ~np.isnan(sub.place[:, 0])),
-    )
-    for name, pts, has in points:
-        rows = ok & has
-        two = np.concatenate([pts, pts], axis=1)
-        far, out = _bounds(np.nan_to_num(two), size[:, 0], size[:, 1], clip_tolerance)
-        far &= rows
-        for r in np.flatnonzero(far)[:MAX_SHOWN].tolist():
-            w, h = (int(v) for v in size[r])
-            problems.add(
-                sub.where(r),
-                f"{name} = {[float(v) for v in pts[r]]} lies outside the {w}x{h} image; it is "
-                "a pixel location [x, y]",
-            )
-        problems.count += max(0, int(far.sum()) - MAX_SHOWN)
-        fix = out & rows & ~far
-        if fix.any():
-            clipped += int(fix.sum())
-            pts[fix, 0] = np.clip(pts[fix, 0], 0.0, size[fix, 0])
-            pts[fix, 1] = np.clip(pts[fix, 1], 0.0, size[fix, 1])
-    problems.raise_if_any()
-    if clipped:
-        warnings.append(
-            f"{clipped} box(es) or point(s) lay up to {clip_tolerance:g} px outside the image "
-            "and were clipped onto it"
+
+def other_step_count(m: Matching, ok: B) -> B:
+    """Records whose step boxes are for another number of steps than the gold's.
+
+    A model that split the instruction differently cannot be compared step by step: its
+    step boxes are ignored, so the per-step IoU-M counts those steps as failures, and
+    counted; the file still scores.
+    """
+    sub = m.sub
+    out: B = ok & sub.has_step_boxes & (sub.n_step_states != m.gold.n_steps[m.safe_row])
+    return out
+
+
+def check_box_bounds(m: Matching, ok: B, name: str, arr: F64, offsets: I64,
+                     per_state: I64 | None, tol: float, problems: Problems) -> int:
+    """Boxes of ``ok`` records far outside the image are problems; boxes at most ``tol``
+    pixels outside are clipped onto it in ``arr`` (in place). Returns how many were."""
+    sub = m.sub
+    size = m.image_size
+    rec = row_ids(offsets)
+    rows_ok = ok[rec]
+    far, out = _bounds(arr, size[rec, 0], size[rec, 1], tol)
+    far &= rows_ok
+    for row in np.flatnonzero(far)[:MAX_SHOWN].tolist():
+        r = int(rec[row])
+        k = row - int(offsets[r])
+        path = f"{name}[{k}]"
+        if per_state is not None:
+            path = f"{name}[{k // int(per_state[r])}][{k % int(per_state[r])}]"
+        w, h = (int(v) for v in size[r])
+        problems.add(
+            sub.where(r),
+            f"{path} = {[float(v) for v in arr[row]]} lies outside the {w}x{h} image; "
+            f"boxes are pixel [x1, y1, x2, y2] with 0 <= x <= {w} and 0 <= y <= {h} "
+            "(scale normalised coordinates to pixels; clip boxes to the image)",
         )
+    problems.count += max(0, int(far.sum()) - MAX_SHOWN)
+    fix = out & rows_ok & ~far
+    if fix.any():
+        wx = size[rec[fix], 0][:, None]
+        hy = size[rec[fix], 1][:, None]
+        arr[fix, 0::2] = np.clip(arr[fix, 0::2], 0.0, wx)
+        arr[fix, 1::2] = np.clip(arr[fix, 1::2], 0.0, hy)
+    return int(fix.sum())
 
-    # Lay the matched records out in gold order.
+
+def check_point_bounds(m: Matching, ok: B, name: str, pts: F64, tol: float,
+                       problems: Problems) -> int:
+    """Like :func:`check_box_bounds` for one pixel point per record (``pick``, ``place``;
+    NaN where absent)."""
+    sub = m.sub
+    size = m.image_size
+    rows = ok & ~np.isnan(pts[:, 0])
+    two = np.concatenate([pts, pts], axis=1)
+    far, out = _bounds(np.nan_to_num(two), size[:, 0], size[:, 1], tol)
+    far &= rows
+    for r in np.flatnonzero(far)[:MAX_SHOWN].tolist():
+        w, h = (int(v) for v in size[r])
+        problems.add(
+            sub.where(r),
+            f"{name} = {[float(v) for v in pts[r]]} lies outside the {w}x{h} image; it is "
+            "a pixel location [x, y]",
+        )
+    problems.count += max(0, int(far.sum()) - MAX_SHOWN)
+    fix = out & rows & ~far
+    if fix.any():
+        pts[fix, 0] = np.clip(pts[fix, 0], 0.0, size[fix, 0])
+        pts[fix, 1] = np.clip(pts[fix, 1], 0.0, size[fix, 1])
+    return int(fix.sum())
+
+
+@dataclass(frozen=True, eq=False)
+class CheckedRecords:
+    """What the checks leave: which records are used, and their (clipped) arrays."""
+
+    ok: B  # (R,) records laid out
+    use_step_boxes: B  # (R,)
+    other_step_count: B  # (R,)
+    boxes: F64
+    step_boxes: F64
+    pick: F64
+    place: F64
+    unknown: int
+    clipped: int
+
+
+def lay_out(m: Matching, checked: CheckedRecords, warnings: list[str]) -> PredictionTable:
+    """The checked records in gold order; instances without one are missing."""
+    sub, gold = m.sub, m.gold
     n_inst = gold.n_instances
-    recs = np.flatnonzero(ok)
-    g_of = rec_g[recs]
+    recs = np.flatnonzero(checked.ok)
+    g_of = m.gold_row[recs]
     order = np.argsort(g_of, kind="stable")
     recs, g_of = recs[order], g_of[order]
     present = np.zeros(n_inst, dtype=bool)
@@ -240,20 +297,21 @@ def align(
     pred_boxes = np.zeros_like(gold.final_boxes)
     src, _ = gather_rows(sub.obj_offsets, recs)
     dst, _ = gather_rows(gold.obj_offsets, g_of)
-    pred_boxes[dst] = boxes[src]
+    pred_boxes[dst] = checked.boxes[src]
 
     pred_pos = np.full_like(gold.final_positions, np.nan)
     pred_pos[dst] = sub.positions[src]
     has_pos = np.zeros(n_inst, dtype=bool)
     has_pos[g_of] = sub.has_positions[recs]
 
+    use_sb = checked.use_step_boxes
     has_sb = np.zeros(n_inst, dtype=bool)
     has_sb[g_of] = use_sb[recs]
     pred_sb = np.zeros_like(gold.step_boxes)
     sb_recs = recs[use_sb[recs]]
     src, _ = gather_rows(sub.stepbox_offsets, sb_recs)
-    dst, _ = gather_rows(gold.stepbox_offsets, rec_g[sb_recs])
-    pred_sb[dst] = step_boxes[src]
+    dst, _ = gather_rows(gold.stepbox_offsets, m.gold_row[sb_recs])
+    pred_sb[dst] = checked.step_boxes[src]
 
     has_prog = np.zeros(n_inst, dtype=bool)
     has_prog[g_of] = sub.has_program[recs]
@@ -263,20 +321,20 @@ def align(
     prog_off = offsets_from_lengths(prog_len)
 
     pick_g = np.full((n_inst, 2), np.nan)
-    pick_g[g_of] = pick[recs]
+    pick_g[g_of] = checked.pick[recs]
     place_g = np.full((n_inst, 2), np.nan)
-    place_g[g_of] = place[recs]
+    place_g[g_of] = checked.place[recs]
 
     counts = {
         "instances": n_inst,
-        "lines": n_rec,
+        "lines": len(sub),
         "predicted": len(recs),
         "missing": n_inst - len(recs),
-        "unknown_ids_ignored": len(unknown),
-        "clipped": clipped,
+        "unknown_ids_ignored": checked.unknown,
+        "clipped": checked.clipped,
         "with_program": int(has_prog.sum()),
         "with_step_boxes": int(has_sb.sum()),
-        "step_boxes_other_step_count": int(other_count[recs].sum()),
+        "step_boxes_other_step_count": int(checked.other_step_count[recs].sum()),
         "with_positions": int(has_pos.sum()),
         "with_pick": int((present & ~np.isnan(pick_g[:, 0])).sum()),
         "with_place": int((present & ~np.isnan(place_g[:, 0])).sum()),
@@ -306,3 +364,50 @@ def align(
         counts=counts,
         warnings=tuple(warnings),
     )
+
+
+def align(
+    submission: Submission,
+    gold: GoldTable,
+    *,
+    unknown_ids: str = "error",
+    clip_tolerance: float = CLIP_TOLERANCE,
+    pending: Problems | None = None,
+) -> PredictionTable:
+    """Lay ``submission`` out like ``gold``, or raise SubmissionError naming every problem.
+
+    ``unknown_ids="warn"`` ignores lines whose id is not in the split, counting and
+    listing them in the warnings instead of refusing the file. ``pending`` holds problems
+    already found in the file (see ``read_submission_pending``); they are raised together
+    with these.
+    """
+    if unknown_ids not in ("error", "warn"):
+        msg = f"unknown_ids must be 'error' or 'warn', got {unknown_ids!r}"
+        raise InvalidArgument(msg)
+    sub = submission
+    problems = pending if pending is not None else Problems(sub.source)
+    warnings: list[str] = []
+    check_split(sub, gold, problems, warnings)
+    m = Matching.of(sub, gold)
+    unknown = check_ids(m, unknown_ids, problems, warnings)
+    ok = check_object_counts(m, problems)
+    other = other_step_count(m, ok)
+    boxes, step_boxes = sub.boxes.copy(), sub.step_boxes.copy()
+    pick, place = sub.pick.copy(), sub.place.copy()
+    clipped = (
+        check_box_bounds(m, ok, "boxes", boxes, sub.obj_offsets, None, clip_tolerance,
+                         problems)
+        + check_box_bounds(m, ok, "step_boxes", step_boxes, sub.stepbox_offsets,
+                           sub.n_objects, clip_tolerance, problems)
+        + check_point_bounds(m, ok, "pick", pick, clip_tolerance, problems)
+        + check_point_bounds(m, ok, "place", place, clip_tolerance, problems)
+    )
+    problems.raise_if_any()
+    if clipped:
+        warnings.append(
+            f"{clipped} box(es) or point(s) lay up to {clip_tolerance:g} px outside the image "
+            "and were clipped onto it"
+        )
+    checked = CheckedRecords(ok, sub.has_step_boxes & ~other, other, boxes, step_boxes, pick, place,
+                       len(unknown), clipped)
+    return lay_out(m, checked, warnings)

@@ -17,6 +17,7 @@ from nsrmp_bench.scoring.gold import load_gold
 from nsrmp_bench.scoring.reader import read_submission_pending
 from nsrmp_bench.scoring.scorer import Data
 from nsrmp_bench.scoring.submission import SubmissionHeader
+from nsrmp_bench.storage.split_root import part_of_split
 
 __all__ = ["CheckReport", "check_submission"]
 
@@ -72,6 +73,6 @@ def check_submission(
     if data is None:
         pending.raise_if_any()
         return CheckReport(sub.source, sub.header, len(sub), False)
-    gold = load_gold(data, split=split)
+    gold = load_gold(data, split=split, part=part_of_split(sub.header.split))
     table = align(sub, gold, unknown_ids=unknown_ids, pending=pending)
     return CheckReport(sub.source, sub.header, len(sub), True, table.counts, table.warnings)

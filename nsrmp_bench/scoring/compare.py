@@ -32,8 +32,10 @@ from nsrmp_bench.scoring.scorer import (
     Predictions,
     metric_columns,
     prepare,
+    read_predictions,
 )
 from nsrmp_bench.scoring.version import SCORER_ID
+from nsrmp_bench.storage.split_root import part_of_split
 
 __all__ = ["DEFAULT_N_PERM", "Comparison", "compare"]
 
@@ -119,9 +121,10 @@ def compare(
     split: str | None = None,
 ) -> Comparison:
     """Paired differences of every metric between submissions ``a`` and ``b`` on ``data``."""
-    gold = load_gold(data, split=split)
-    table_a, frame_a, _ = prepare(a, gold, unknown_ids=unknown_ids)
-    table_b, frame_b, _ = prepare(b, gold, unknown_ids=unknown_ids)
+    read_a, read_b = read_predictions(a), read_predictions(b)
+    gold = load_gold(data, split=split, part=part_of_split(read_a[0].header.split))
+    table_a, frame_a, _ = prepare(read_a, gold, unknown_ids=unknown_ids)
+    table_b, frame_b, _ = prepare(read_b, gold, unknown_ids=unknown_ids)
     cols = [c for c in metric_columns(gold, frame_a) if c in frame_b.columns]
     va = frame_a[cols].to_numpy(dtype=np.float64)
     vb = frame_b[cols].to_numpy(dtype=np.float64)

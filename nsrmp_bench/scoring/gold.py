@@ -319,11 +319,14 @@ def _split_of(collection: Any) -> str | None:
     return value if isinstance(value, str) and value else None
 
 
-def load_episodes(path: str | Path) -> tuple[Iterable[Episode], str | None]:
+def load_episodes(
+    path: str | Path, *, part: str | None = None
+) -> tuple[Iterable[Episode], str | None]:
     """Episodes of a data file, without images, and the split id it records.
 
     A ``.jsonl`` file holds one symbolic episode per line (``SymbolicEpisode.to_dict``);
-    anything else is opened with :func:`nsrmp_bench.storage.open`.
+    anything else is opened with :func:`nsrmp_bench.storage.open` (a split root at its
+    part ``part``).
     """
     p = Path(path)
     if not p.exists():
@@ -333,7 +336,7 @@ def load_episodes(path: str | Path) -> tuple[Iterable[Episode], str | None]:
         return _read_symbolic_jsonl(p), None
     from nsrmp_bench.storage import open as open_storage
 
-    collection = open_storage(p)
+    collection = open_storage(p, part=part)
     return collection.iter_episodes(images=False), _split_of(collection)
 
 
@@ -358,14 +361,16 @@ def load_gold(
     data: GoldTable | str | Path | Iterable[Episode | SymbolicEpisode],
     *,
     split: str | None = None,
+    part: str | None = None,
 ) -> GoldTable:
     """A :class:`GoldTable` from a table, a data file path, or an iterable of episodes.
 
-    ``split`` names the split when the data does not record it.
+    ``split`` names the split when the data does not record it; ``part`` picks the part
+    of a split root (see :func:`load_episodes`).
     """
     if isinstance(data, GoldTable):
         return data
     if isinstance(data, str | Path):
-        episodes, recorded = load_episodes(data)
+        episodes, recorded = load_episodes(data, part=part)
         return GoldTable.from_episodes(episodes, split=recorded or split, source=str(data))
     return GoldTable.from_episodes(data, split=split)

@@ -76,4 +76,4 @@ def episode_initial_state(episode: Episode) -> Scene:
         )
         for p in poses
     )
-    return Scene(sym.scene.objects, initial)
+    return sym.scene.at(initial)

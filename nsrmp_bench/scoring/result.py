@@ -14,12 +14,19 @@ from typing import Any, cast
 
 import pandas as pd
 
-from nsrmp_bench.errors import UnknownId
+from nsrmp_bench.errors import InvalidArgument, UnknownId
 
-__all__ = ["BREAKDOWN_SHOWN", "ScoreResult", "json_ready"]
+__all__ = ["BREAKDOWNS", "BREAKDOWN_SHOWN", "SHORT_BREAKDOWN", "ScoreResult", "json_ready"]
 
 BREAKDOWN_SHOWN = ("iou_m", "iou", "success", "program_exact")
 """The metrics the printed breakdown shows (the JSON and DataFrames hold all of them)."""
+
+SHORT_BREAKDOWN = ("steps", "objects", "relational", "phrasing")
+"""The categories the printed breakdown shows by default (``breakdown="short"``)."""
+
+BREAKDOWNS = ("short", "all", "none")
+"""How much of the breakdown :meth:`ScoreResult.render` prints: the categories of
+:data:`SHORT_BREAKDOWN`, every category (templates too), or none."""
 
 
 def json_ready(value: Any) -> Any:
@@ -41,6 +48,13 @@ def _num(value: Any) -> float:
 
 def _fmt(value: float, digits: int = 3) -> str:
     return "—" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
+
+
+def _cell(row: pd.Series, kind: str, metric: str) -> float:
+    """One value of a pivoted breakdown row; NaN where the pivot dropped an all-NaN column
+    (intervals when none were computed)."""
+    key = (kind, metric)
+    return _num(row[key]) if key in row.index else math.nan
 
 
 def _ci(low: float, high: float) -> str:
@@ -148,10 +162,15 @@ class ScoreResult:
         )
         return p
 
-    def render(self, console: Any = None) -> None:
-        """Print the figures as rich tables."""
+    def render(self, console: Any = None, *, breakdown: str = "short") -> None:
+        """Print the figures as rich tables: the headline table, IoU-M after each step, and
+        the breakdown by the categories ``breakdown`` names (one of :data:`BREAKDOWNS`)."""
         from rich.console import Console
         from rich.table import Table
+
+        if breakdown not in BREAKDOWNS:
+            msg = f"breakdown={breakdown!r}; expected one of {list(BREAKDOWNS)}"
+            raise InvalidArgument(msg)
 
         con = console if console is not None else Console()
         n = self.counts.get("instances", 0)
@@ -183,16 +202,22 @@ class ScoreResult:
                 s.add_row(str(step), _fmt(row["value"]), _ci(row["ci_low"], row["ci_high"]),
                           str(int(row["n"])))
             con.print(s)
-        if len(self.per_category):
+        categories = self.per_category
+        hidden: list[str] = []
+        if breakdown != "all" and len(categories):
+            wanted: tuple[str, ...] = SHORT_BREAKDOWN if breakdown == "short" else ()
+            hidden = [str(c) for c in categories["category"].unique() if c not in wanted]
+            categories = categories[categories["category"].isin(wanted)]
+        if len(categories):
             b = Table(title="Breakdown", title_justify="left")
-            b.add_column("category")
-            b.add_column("group", no_wrap=True, max_width=14, overflow="ellipsis")
+            b.add_column("category", no_wrap=True, min_width=10)
+            b.add_column("group", no_wrap=True, max_width=10, overflow="ellipsis")
             b.add_column("n", justify="right", min_width=3)
             b.add_column("IoU-M", justify="right", min_width=5)
-            b.add_column(f"{level:.0%} CI", justify="right")
+            b.add_column(f"{level:.0%} CI", justify="right", no_wrap=True)
             for m in BREAKDOWN_SHOWN[1:]:
                 b.add_column(str(self.summary.at[m, "label"]), justify="right", min_width=5)
-            wide = self.per_category.pivot_table(
+            wide = categories.pivot_table(
                 index=["category", "group"], columns="metric",
                 values=["value", "ci_low", "ci_high", "n"], aggfunc="first", sort=False,
             )
@@ -202,12 +227,15 @@ class ScoreResult:
                 shown_cat = "" if category == previous else str(category)
                 previous = category
                 b.add_row(
-                    shown_cat, str(group), str(int(row[("n", "iou")])),
-                    _fmt(row[("value", "iou_m")]),
-                    _ci(row[("ci_low", "iou_m")], row[("ci_high", "iou_m")]),
-                    *(_fmt(row[("value", m)]) for m in BREAKDOWN_SHOWN[1:]),
+                    shown_cat, str(group), str(int(_cell(row, "n", "iou"))),
+                    _fmt(_cell(row, "value", "iou_m")),
+                    _ci(_cell(row, "ci_low", "iou_m"), _cell(row, "ci_high", "iou_m")),
+                    *(_fmt(_cell(row, "value", m)) for m in BREAKDOWN_SHOWN[1:]),
                 )
             con.print(b)
+        if hidden:
+            con.print(f"[dim]breakdown by {', '.join(hidden)}: --breakdown all "
+                      "(every figure: --json)[/dim]")
         nonzero = {k: v for k, v in self.counts.items() if v}
         con.print("counts: " + ", ".join(f"{k}={v}" for k, v in nonzero.items()))
         for w in self.warnings:

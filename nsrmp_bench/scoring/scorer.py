@@ -23,9 +23,18 @@ from nsrmp_bench.scoring.metrics import METRICS, instance_scores, step_metric_na
 from nsrmp_bench.scoring.reader import read_submission_pending
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.submission import Submission
+from nsrmp_bench.scoring.validate import Problems
 from nsrmp_bench.scoring.version import SCORER_ID
+from nsrmp_bench.storage.split_root import part_of_split
 
-__all__ = ["DEFAULT_N_BOOT", "DEFAULT_SEED", "metric_columns", "prepare", "score"]
+__all__ = [
+    "DEFAULT_N_BOOT",
+    "DEFAULT_SEED",
+    "metric_columns",
+    "prepare",
+    "read_predictions",
+    "score",
+]
 
 DEFAULT_SEED = 0
 """Seed of the bootstrap's Generator unless another is given (results are reproducible)."""
@@ -45,15 +54,24 @@ def metric_columns(gold: GoldTable, frame: pd.DataFrame) -> list[str]:
     return cols
 
 
-def prepare(
-    predictions: Predictions, gold: GoldTable, *, unknown_ids: str = "error"
-) -> tuple[PredictionTable, pd.DataFrame, dict[str, int]]:
-    """Read and check ``predictions``, match them to ``gold``, and compute per-instance values."""
+def read_predictions(predictions: Predictions) -> tuple[Submission, Problems | None]:
+    """A parsed submission and the problems found reading it (None when given parsed)."""
     if isinstance(predictions, Submission):
-        table = align(predictions, gold, unknown_ids=unknown_ids)
-    else:
-        sub, pending = read_submission_pending(predictions)
-        table = align(sub, gold, unknown_ids=unknown_ids, pending=pending)
+        return predictions, None
+    return read_submission_pending(predictions)
+
+
+def prepare(
+    predictions: Predictions | tuple[Submission, Problems | None],
+    gold: GoldTable,
+    *,
+    unknown_ids: str = "error",
+) -> tuple[PredictionTable, pd.DataFrame, dict[str, int]]:
+    """Read and check ``predictions`` (or a :func:`read_predictions` result), match them to
+    ``gold``, and compute per-instance values."""
+    sub, pending = (predictions if isinstance(predictions, tuple)
+                    else read_predictions(predictions))
+    table = align(sub, gold, unknown_ids=unknown_ids, pending=pending)
     frame, source_counts = instance_scores(gold, table)
     return table, frame, {**table.counts, **source_counts}
 
@@ -145,15 +163,17 @@ def score(
     """Score a predictions file (or parsed :class:`Submission`) against a split's data.
 
     ``data`` is a data file path, an iterable of episodes, or a built :class:`GoldTable`
-    (``split`` names it when it records no split id). Intervals are percentile bootstrap
+    (``split`` names it when it records no split id); a split root is read at the part
+    the predictions' header names (``smoke-v2/test``). Intervals are percentile bootstrap
     intervals at ``level`` from ``n_boot`` resamples of a Generator seeded with ``seed``
     (0 resamples: no intervals). ``breakdown=False`` skips the per-category tables and
     ``breakdown_intervals=False`` only their intervals (the costly part on huge splits).
     ``unknown_ids="warn"`` ignores (and counts) lines for ids outside the split instead of
     refusing the file. Raises :class:`~nsrmp_bench.errors.SubmissionError` for a bad file.
     """
-    gold = load_gold(data, split=split)
-    table, frame, counts = prepare(predictions, gold, unknown_ids=unknown_ids)
+    read = read_predictions(predictions)
+    gold = load_gold(data, split=split, part=part_of_split(read[0].header.split))
+    table, frame, counts = prepare(read, gold, unknown_ids=unknown_ids)
     summary, per_step, per_category = summarise(
         gold, frame, seed=seed, n_boot=n_boot, level=level, breakdown=breakdown,
         breakdown_intervals=breakdown_intervals,

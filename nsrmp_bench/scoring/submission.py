@@ -145,7 +145,8 @@ class Submission:
     """A parsed, format-checked predictions file: one row per record, flat arrays.
 
     Made by :func:`nsrmp_bench.scoring.reader.read_submission` (or
-    :meth:`from_predictions`); not yet matched to a split's instances.
+    :func:`nsrmp_bench.scoring.validate.parse_predictions`); not yet matched to a split's
+    instances.
     """
 
     header: SubmissionHeader
@@ -181,19 +182,6 @@ class Submission:
     def where(self, record: int) -> str:
         """``"line 12"`` (or ``"row 12"``) for record index ``record``."""
         return f"{self.line_label} {int(self.lines[record])}"
-
-    @classmethod
-    def from_predictions(
-        cls, header: SubmissionHeader, predictions: Iterable[Prediction], source: str = "<memory>"
-    ) -> Submission:
-        """Check and parse in-memory predictions exactly as a file would be."""
-        from nsrmp_bench.scoring.validate import parse_submission
-
-        records = [p.to_record() for p in predictions]
-        return parse_submission(
-            {"header": header.to_dict()}, iter(records), source=source, first_line=2,
-            deep_type_check=True,
-        )
 
 
 def _atomic_write(path: Path, write: Any) -> None:

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from nsrmp_bench.errors import SubmissionError
 from nsrmp_bench.scoring.ragged import offsets_from_lengths
-from nsrmp_bench.scoring.submission import Submission, SubmissionHeader
+from nsrmp_bench.scoring.submission import Prediction, Submission, SubmissionHeader
 from nsrmp_bench.scoring.version import (
     KNOWN_SCORERS,
     SCORER_ID,
@@ -32,7 +32,14 @@ from nsrmp_bench.scoring.version import (
 )
 from nsrmp_bench.vocabulary import ACTIONS
 
-__all__ = ["MAX_SHOWN", "RECORD_FIELDS", "Problems", "SubmissionParser", "parse_submission"]
+__all__ = [
+    "MAX_SHOWN",
+    "RECORD_FIELDS",
+    "Problems",
+    "SubmissionParser",
+    "parse_predictions",
+    "parse_submission",
+]
 
 MAX_SHOWN = 20
 """Most problems listed in one error message (all are counted)."""
@@ -623,3 +630,12 @@ def parse_submission(
     for k, obj in enumerate(records):
         parser.parse_record(first_line + k, obj, deep=deep_type_check)
     return parser.finish()
+
+
+def parse_predictions(
+    header: SubmissionHeader, predictions: Iterable[Prediction], *, source: str = "<memory>"
+) -> Submission:
+    """Check and parse in-memory predictions exactly as a file would be."""
+    records = [p.to_record() for p in predictions]
+    return parse_submission({"header": header.to_dict()}, iter(records), source=source,
+                            first_line=2, deep_type_check=True)

@@ -116,8 +116,8 @@ def check_episode_id(episode_id: str) -> str:
     return episode_id
 
 
-def check_schema_version(version: Any, where: str) -> str:
-    """Accept a semver string of the supported major version; raise SchemaVersionError."""
+def check_schema_version(version: Any, where: str, supported: int = SUPPORTED_MAJOR) -> str:
+    """Accept a semver string of major version ``supported``; raise SchemaVersionError."""
     text = version.decode() if isinstance(version, bytes) else str(version)
     parts = text.split(".")
     if len(parts) != 3 or not all(p.isdigit() for p in parts):
@@ -127,15 +127,15 @@ def check_schema_version(version: Any, where: str) -> str:
         )
         raise SchemaVersionError(msg)
     major = int(parts[0])
-    if major != SUPPORTED_MAJOR:
+    if major != supported:
         hint = (
             "upgrade nsrmp-bench (pip install -U nsrmp-bench)"
-            if major > SUPPORTED_MAJOR
+            if major > supported
             else "regenerate the data with this version, or read it with an older nsrmp-bench"
         )
         msg = (
             f"{where}: schema_version {text} has major version {major}, but this nsrmp-bench "
-            f"reads major version {SUPPORTED_MAJOR} only; {hint}"
+            f"reads major version {supported} only; {hint}"
         )
         raise SchemaVersionError(msg)
     return text

@@ -14,6 +14,7 @@ Layout (keys sorted; one episode row per line, so diffs stay readable)::
      "episodes": [{"index", "id", "hash", "steps", "objects", "relational",
                    "relation_needed", "phrasing", "template"[, "tolerant"]}, ...]
      ["comparison": {...}]  only with robot episodes: how they are compared
+     ["official": false, "spec": {...}]  only for a split generated from a spec file
     }
 
 Robot episodes are not bit-stable across CPUs: their rows carry a ``tolerant`` summary and
@@ -70,6 +71,13 @@ class Manifest:
     versions: dict[str, str]
     shards: tuple[ShardRecord, ...]
     root_hash: str
+    spec: Mapping[str, Any] | None = None
+    """The split spec of an unofficial split (generated from a spec file), else None."""
+
+    @property
+    def official(self) -> bool:
+        """False for data of an unofficial split (its manifest holds the spec)."""
+        return self.spec is None
 
     @property
     def episodes(self) -> tuple[EpisodeEntry, ...]:
@@ -106,6 +114,7 @@ class Manifest:
             "episodes": rows,
             **({"comparison": comparison_spec()}
                if any(e.tolerant is not None for s in self.shards for e in s.episodes) else {}),
+            **({"official": False, "spec": dict(self.spec)} if self.spec is not None else {}),
         }
 
     def to_json(self) -> str:
@@ -158,6 +167,7 @@ class Manifest:
             versions={str(k): str(v) for k, v in data.get("versions", {}).items()},
             shards=shards,
             root_hash=str(data["root_hash"]),
+            spec=dict(data["spec"]) if data.get("official") is False else None,
         )
 
 
@@ -167,10 +177,12 @@ def build_manifest(
     split: str,
     generator: str | None = None,
     versions: Mapping[str, str] | None = None,
+    spec: Mapping[str, Any] | None = None,
 ) -> Manifest:
     """A manifest over ``records``, which must tile a contiguous index range.
 
-    ``generator`` defaults to the generator ids the shards record.
+    ``generator`` defaults to the generator ids the shards record; ``spec`` is the split
+    spec of an unofficial split (None for a shipped one).
     """
     ordered = sorted(records, key=lambda r: r.start)
     for a, b in itertools.pairwise(ordered):
@@ -202,6 +214,7 @@ def build_manifest(
         versions=dict(sorted((versions or {}).items())),
         shards=tuple(ordered),
         root_hash=root_hash(entries),
+        spec=spec,
     )
 
 

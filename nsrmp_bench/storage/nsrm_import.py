@@ -16,7 +16,9 @@ What the import does:
   original requires that set to have one element). ``union``/``intersect`` and the
   ``above``/``below`` relations have no DSL equivalent and are refused.
 * States: ``object_positions`` (nominal centres, as the original recorded them) with
-  the objects' stored rotation.
+  the objects' stored rotation. The scene carries the original's workspace
+  (:data:`ORIGINAL_WORKSPACE`, its whole table top), so the step checks judge an imported
+  program where it was made, not by our smaller target area.
 * Images, when the scene folders exist: state 0 from ``S00``, state S from the last scene
   folder. The original renders no intermediate states: for a 2-step example the image of
   state 1 is all zero (depth NaN, segmentation -1), and ``physics["images_present"]``
@@ -65,10 +67,13 @@ from nsrmp_bench.scene import Pose, Scene, SceneObject
 from nsrmp_bench.storage.manifest import Manifest
 from nsrmp_bench.storage.reader import open as open_collection
 from nsrmp_bench.storage.resume import write_dataset
+from nsrmp_bench.vocabulary import Area
 
 __all__ = [
     "GENERATOR_ID",
     "NSRM_CAMERAS",
+    "ORIGINAL_EXTENTS",
+    "ORIGINAL_WORKSPACE",
     "ImportReport",
     "convert_program",
     "find_examples",
@@ -101,6 +106,13 @@ ORIGINAL_EXTENTS: Final[dict[str, tuple[float, float, float]]] = {
     "lego": (0.0672, 0.0672, 0.0483),
 }
 """Collision-box sizes of the original's objects (measured in PyBullet 3.2.7)."""
+
+ORIGINAL_WORKSPACE: Final = Area("nsrm-original-table", -0.75, 0.75, -0.50, 0.50)
+"""Where the original lets a moved object's centre land: anywhere on its table top
+(pybullet_data's ``table.urdf``, 1.5 m x 1.0 m, centred on the origin). The original spawns
+objects over a larger area than ours and never clamps targets
+(``reference/nsrm-original-datagen.md`` section 2.3), so its moves near the edges leave our
+:data:`~nsrmp_bench.vocabulary.TARGET_AREA`; imported scenes carry this workspace instead."""
 
 _MASK_OFFSET: Final = 3
 _SET_OPS: Final = {"scene", "filter", "relate"}
@@ -188,7 +200,7 @@ def symbolic_from_demo(demo: dict[str, Any], *, episode_id: str, index: int) -> 
             id=episode_id,
             generator=GENERATOR_ID,
             seed=SeedInfo(0, index),
-            scene=Scene(objects, states[0]),
+            scene=Scene(objects, states[0], ORIGINAL_WORKSPACE),
             program=program,
             grounded=grounded,
             instruction=instruction,

@@ -35,6 +35,7 @@ from nsrmp_bench.storage.hashing import episode_hash
 from nsrmp_bench.storage.layout import FORMAT, SHARD_SUFFIX, check_schema_version
 from nsrmp_bench.storage.manifest import MANIFEST_NAME, Manifest, read_manifest
 from nsrmp_bench.storage.records import CATEGORY_KEYS
+from nsrmp_bench.storage.split_root import resolve_part
 
 __all__ = ["EpisodeCollection", "open", "read_episode", "read_inputs", "read_targets"]
 
@@ -453,15 +454,20 @@ def _open_dir(path: Path, verify: bool) -> EpisodeCollection:
                              verify=verify)
 
 
-def open(path: str | os.PathLike[str], *, verify: bool = False) -> EpisodeCollection:
+def open(
+    path: str | os.PathLike[str], *, verify: bool = False, part: str | None = None
+) -> EpisodeCollection:
     """Open a shard file or a data directory (with ``manifest.json``) for reading.
+
+    A split root (the directory ``generate --out`` writes, one directory per part) is
+    opened at its part ``part``; without ``part`` it is refused with the parts it holds.
 
     Always checked: format and schema major version, shard sizes against the manifest, and
     each episode's stored content hash against the manifest when it is read. With
     ``verify`` also every shard's sha256 (at open) and every episode's recomputed hash
     (when read with images): slower, for ``verify`` runs and paranoid readers.
     """
-    p = Path(path)
+    p = resolve_part(path, part)
     if p.is_dir():
         return _open_dir(p, verify)
     if p.is_file():

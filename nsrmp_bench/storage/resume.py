@@ -16,6 +16,7 @@ import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import h5py
 
@@ -191,18 +192,20 @@ def write_manifest(
     index_range: tuple[int, int] | None = None,
     generator: str | None = None,
     verify: bool = True,
+    spec: Mapping[str, Any] | None = None,
 ) -> Manifest:
     """Build ``manifest.json`` from the complete shards of ``out_dir`` and write it.
 
     ``versions`` (package, simulator, ...) come from the caller. With ``index_range`` the
-    shards must cover exactly that range.
+    shards must cover exactly that range. ``spec`` is the spec of an unofficial split,
+    written into the manifest (None for a shipped split).
     """
     state = scan_output(out_dir, verify=verify)
     if not state.complete:
         msg = f"no complete shard in {out_dir}; generate the shards first"
         raise InvalidArgument(msg)
     manifest = build_manifest(state.complete, split=split, versions=versions,
-                              generator=generator)
+                              generator=generator, spec=spec)
     if index_range is not None and manifest.index_range != tuple(index_range):
         msg = (
             f"the shards of {out_dir} cover indices {list(manifest.index_range)}, expected "

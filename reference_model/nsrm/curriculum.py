@@ -130,7 +130,7 @@ class _Steps:
         executor_loss = (weight * losses).sum(0).mean()
         advantage = (losses.mean(0, keepdim=True) - losses).detach()
         policy = -(advantage * logp).mean()
-        entropy = (dist.entropy().sum(-1) * pmask.reshape(-1)).mean()
+        entropy: Tensor = (dist.entropy().sum(-1) * pmask.reshape(-1)).mean()
         return executor_loss + policy - self.cfg.entropy * entropy
 
     def splitter(self, rows: Tensor) -> Tensor:

@@ -74,7 +74,7 @@ class NSRM(nn.Module):
         """Visual features (B, N, F) of the real objects (zeros for padding)."""
         b, n = enc.object_mask.shape
         real = enc.object_mask.reshape(-1)
-        out = self.visual(enc.crops.reshape(b * n, *enc.crops.shape[2:])[real])
+        out: Tensor = self.visual(enc.crops.reshape(b * n, *enc.crops.shape[2:])[real])
         feats = out.new_zeros((b * n, out.shape[-1]))
         feats[real] = out
         return feats.reshape(b, n, -1)

@@ -15,6 +15,8 @@
 
 from __future__ import annotations
 
+from typing import cast
+
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
@@ -115,12 +117,16 @@ class ActionSimulator(nn.Module):
             nn.Linear(cfg.action_hidden, cfg.action_hidden), nn.ReLU(),
             nn.Linear(cfg.action_hidden, GEOMETRY),
         )
-        nn.init.zeros_(self.net[-1].weight)
-        nn.init.zeros_(self.net[-1].bias)
+        last = cast(nn.Linear, self.net[-1])
+        nn.init.zeros_(last.weight)
+        nn.init.zeros_(last.bias)
         side = [0.0 if a == "top" else (-1.0 if a == "left" else 1.0) for a in ACTIONS]
         self.register_buffer("side", torch.tensor(side), persistent=False)
         self.register_buffer("top", torch.tensor([float(a == "top") for a in ACTIONS]),
                              persistent=False)
+
+    side: Tensor
+    top: Tensor
 
     def forward(self, subject: Tensor, base: Tensor, action: Tensor) -> Tensor:
         x = torch.cat([subject * _SCALE, base * _SCALE, action], dim=-1)
@@ -157,7 +163,8 @@ class _Encoder(nn.Module):
         out, _ = self.gru(packed)
         h, _ = nn.utils.rnn.pad_packed_sequence(out, batch_first=True,
                                                 total_length=tokens.shape[1])
-        return h  # type: ignore[no-any-return]
+        out_h: Tensor = h
+        return out_h
 
 
 class Tagger(nn.Module):

@@ -34,8 +34,8 @@ def world() -> Iterator[Any]:
 
 @pytest.mark.parametrize("profile", ["fast", "realistic"])
 def test_one_pick_and_place(benchmark: Any, world: Any, profile: str) -> None:
-    from nsrmp_bench.generators.world.replay import stage_scene
-    from nsrmp_bench.generators.world.robot import execute_program
+    from nsrmp_bench.generators.replay.episode import stage_scene
+    from nsrmp_bench.generators.robot.pick_and_place import execute_program
 
     ep = sample_episode(EpisodeConfig(objects=10, steps=1), ENTROPY, 0, "bench/0")
 
@@ -51,7 +51,7 @@ def test_one_pick_and_place(benchmark: Any, world: Any, profile: str) -> None:
 def test_one_replayed_episode(benchmark: Any, world: Any) -> None:
     """Stage, plan from the gold boxes, execute 3 steps, measure: one replay line."""
     from nsrmp_bench.episode import Episode
-    from nsrmp_bench.generators.world.replay import PredictedPlacement, replay_episode
+    from nsrmp_bench.generators.replay.episode import PredictedPlacement, replay_episode
     from nsrmp_bench.geometry.default_camera import OFFICIAL_CAMERA
     from nsrmp_bench.scoring.projection import states_boxes
 

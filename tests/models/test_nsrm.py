@@ -156,6 +156,25 @@ def test_shipped_checkpoint_predicts_and_beats_noop(smoke_test: Path, tmp_path: 
     assert header["model"] == "nsrm-v1" and header["split"] == "smoke-v2/test"
 
 
+def test_evaluate_runs_the_model_and_scores_it_like_predict(smoke_test: Path,
+                                                            tmp_path: Path) -> None:
+    root = tmp_path / "data"
+    (root / "smoke-v2").mkdir(parents=True)
+    (root / "smoke-v2" / "test").symlink_to(smoke_test, target_is_directory=True)
+    pred = tmp_path / "nsrm.jsonl"
+    assert main(["predict", "nsrm", "--data", str(smoke_test), "--out", str(pred)]) == 0
+    out = tmp_path / "results"
+    assert main(["evaluate", "nsrm", "--data-root", str(root), "--out", str(out),
+                 "--quiet"]) == 0
+    from nsrmp_bench.results.summary import Results
+
+    run = Results.read(out).run("nsrm-v1", "smoke-v2/test")
+    assert run is not None and run.kind == "reference"
+    written = out / run.predictions
+    assert written.read_bytes() == pred.read_bytes()
+    assert run.metric("iou_m").value == _headline(_score(pred, smoke_test, tmp_path), "iou_m")
+
+
 def test_bad_input_is_a_clear_error(tiny_paper: Path, tmp_path: Path,
                                     capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["predict", "nsrm", "--data", str(tiny_paper), "--out",

@@ -9,7 +9,7 @@ import pytest
 from robot_cases import generated
 
 from nsrmp_bench.dsl.program import GroundedStep
-from nsrmp_bench.generators.world.replay_targets import (
+from nsrmp_bench.generators.replay.plan import (
     PlannedMove,
     box_of,
     fit_box_on_plane,

@@ -14,15 +14,15 @@ pytest.importorskip("cv2")
 from robot_cases import generated
 
 from nsrmp_bench.errors import InvalidArgument, UnknownId
-from nsrmp_bench.generators.world.realise import realise
-from nsrmp_bench.generators.world.replay import stage_scene
-from nsrmp_bench.generators.world.robot import (
+from nsrmp_bench.generators.replay.episode import stage_scene
+from nsrmp_bench.generators.robot.pick_and_place import (
     SUCCESS,
     execute_program,
     execute_step,
     robot_joint_names,
 )
-from nsrmp_bench.generators.world.robot_profiles import PROFILES
+from nsrmp_bench.generators.robot.profiles import PROFILES
+from nsrmp_bench.generators.world.realise import realise
 from nsrmp_bench.scene import Pose
 
 pytestmark = pytest.mark.sim

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from nsrmp_bench.generators.world.robot_grasp import (
+from nsrmp_bench.generators.robot.grasp import (
     FINGER_BELOW_GRASP,
     MAX_FINGER_OPENING,
     choose_grasp_yaw,

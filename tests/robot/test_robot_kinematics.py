@@ -10,14 +10,14 @@ import pytest
 
 pytest.importorskip("pybullet")
 
-from nsrmp_bench.generators.world.robot_control import (
+from nsrmp_bench.generators.robot.control import (
     READY,
     arm_kinematics,
     panda_joints,
     posture,
 )
-from nsrmp_bench.generators.world.robot_grasp import neutral_yaw
-from nsrmp_bench.generators.world.robot_kinematics import down_rotation
+from nsrmp_bench.generators.robot.grasp import neutral_yaw
+from nsrmp_bench.generators.robot.kinematics import down_rotation
 from nsrmp_bench.generators.world.world import PANDA_BASE
 from nsrmp_bench.vocabulary import TABLE_TOP_Z, TARGET_AREA
 

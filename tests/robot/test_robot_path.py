@@ -12,9 +12,9 @@ pytest.importorskip("cv2")
 
 from robot_cases import generated
 
-from nsrmp_bench.generators.world.replay import stage_scene
-from nsrmp_bench.generators.world.robot import execute_program
-from nsrmp_bench.generators.world.robot_path import draw_ee_path, ee_path_pixels, gripper_events
+from nsrmp_bench.generators.replay.episode import stage_scene
+from nsrmp_bench.generators.robot.path import draw_ee_path, ee_path_pixels, gripper_events
+from nsrmp_bench.generators.robot.pick_and_place import execute_program
 
 pytestmark = pytest.mark.sim
 

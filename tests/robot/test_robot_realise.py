@@ -14,8 +14,8 @@ pytest.importorskip("cv2")
 from robot_cases import generated
 
 from nsrmp_bench.episode import Episode, SeedInfo, SymbolicEpisode
+from nsrmp_bench.generators.robot.realise import realise_with_robot
 from nsrmp_bench.generators.world.realise import realise
-from nsrmp_bench.generators.world.robot_realise import realise_with_robot
 
 pytestmark = pytest.mark.sim
 

@@ -108,3 +108,76 @@ def test_scoring_a_storage_data_directory(tmp_path: Path) -> None:
     result = score(pred, shard, n_boot=0)
     assert result.split == SPLIT and result.counts["predicted"] == 4
     assert result.value("iou_m") == pytest.approx(1.0)
+
+
+@pytest.fixture(scope="module")
+def split_root(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A split root as `generate --out ROOT` leaves it: ROOT/test/ with shards and manifest."""
+    from nsrmp_bench.storage import write_manifest, write_shard
+
+    root = tmp_path_factory.mktemp("root") / "cli"
+    write_shard(root / "test", 0, [_rendered(e) for e in episodes(4)], split=f"{SPLIT}/test")
+    write_manifest(root / "test", split=f"{SPLIT}/test")
+    return root
+
+
+def test_a_split_root_as_data(tmp_path: Path, split_root: Path,
+                              capsys: pytest.CaptureFixture[str]) -> None:
+    pred = tmp_path / "oracle.jsonl"
+    # No header to name the part: told what the root holds and what to pass.
+    assert cli("baseline", "oracle", "--data", split_root, "--out", pred) == 2
+    err = capsys.readouterr().err
+    assert f"{split_root} is a split root holding the parts: test; pass {split_root / 'test'}" in err
+    assert "Traceback" not in err and not pred.exists()
+    assert cli("info", split_root) == 2
+    assert "is a split root holding the parts: test" in capsys.readouterr().err
+
+    assert cli("baseline", "oracle", "--data", split_root / "test", "--out", pred) == 0
+    # The predictions' header names the part (cli-v1/test): the root is read there.
+    assert cli("score", pred, "--data", split_root, "--n-boot", "0", "--json",
+               tmp_path / "s.json") == 0
+    assert json.loads((tmp_path / "s.json").read_text())["split"] == f"{SPLIT}/test"
+    assert cli("compare", pred, pred, "--data", split_root, "--n-boot", "0",
+               "--n-perm", "10") == 0
+    assert cli("check-submission", pred, "--split", SPLIT, "--data", split_root) == 0
+    assert score(pred, split_root, n_boot=0).value("iou_m") == pytest.approx(1.0)
+
+
+def test_a_split_root_without_the_predicted_part(tmp_path: Path, split_root: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    pred = tmp_path / "val.jsonl"
+    pred.write_text(json.dumps({"header": {"format": "nsrmp-bench-predictions",
+                                           "format_version": "1.0.0", "split": f"{SPLIT}/val",
+                                           "scorer": "scorer-v1"}}) + "\n", "utf-8")
+    assert cli("score", pred, "--data", split_root) == 2
+    err = capsys.readouterr().err
+    assert "holding the parts: test, not the part 'val' the predictions are for" in err
+
+
+def test_open_a_split_root_at_a_part(split_root: Path) -> None:
+    from nsrmp_bench.errors import InvalidArgument
+    from nsrmp_bench.storage import open as open_storage
+
+    assert len(open_storage(split_root, part="test")) == 4
+    with pytest.raises(InvalidArgument, match="is a split root holding the parts: test"):
+        open_storage(split_root)
+
+
+def test_score_prints_a_short_breakdown_unless_asked(tmp_path: Path, split_root: Path,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    pred = tmp_path / "noop.jsonl"
+    assert cli("baseline", "noop", "--data", split_root / "test", "--out", pred) == 0
+    capsys.readouterr()
+    assert cli("score", pred, "--data", split_root / "test", "--n-boot", "0") == 0
+    short = capsys.readouterr().out
+    assert "IoU-M after each step" in short and "phrasing" in short
+    assert "template" not in short.split("Breakdown")[1].split("breakdown by")[0]
+    assert "--breakdown all" in short
+    assert cli("score", pred, "--data", split_root / "test", "--breakdown", "all",
+               "--json", tmp_path / "s.json") == 0
+    full = capsys.readouterr().out
+    assert "template" in full and len(full.splitlines()) > len(short.splitlines())
+    groups = {r["category"] for r in json.loads((tmp_path / "s.json").read_text())["per_category"]}
+    assert {"steps", "objects", "relational", "phrasing", "template"} <= groups
+    assert cli("score", pred, "--data", split_root / "test", "--breakdown", "none") == 0
+    assert "Breakdown" not in capsys.readouterr().out

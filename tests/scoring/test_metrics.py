@@ -12,7 +12,7 @@ import pytest
 from scoring_factory import HEADER, SPLIT, boxed_episode, prediction
 
 from nsrmp_bench.episode import Episode
-from nsrmp_bench.scoring import ScoreResult, Submission, score
+from nsrmp_bench.scoring import ScoreResult, parse_predictions, score
 from nsrmp_bench.scoring.submission import Prediction
 
 # Three objects; object 1 is put on top of object 0 (its box overlaps 0's top by 5 px).
@@ -21,7 +21,7 @@ STACKED = [[100, 100, 120, 120], [100, 85, 120, 105], [50, 50, 70, 70]]
 
 
 def run(episodes: list[Episode], preds: list[Prediction], **kw: Any) -> ScoreResult:
-    sub = Submission.from_predictions(HEADER, preds)
+    sub = parse_predictions(HEADER, preds)
     return score(sub, episodes, split=SPLIT, n_boot=0, **kw)
 
 

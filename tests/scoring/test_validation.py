@@ -218,9 +218,9 @@ def test_parquet_problems_name_rows(tmp_path: Path, gold: GoldTable) -> None:
 
 
 def test_other_split_from_python(gold: GoldTable) -> None:
-    from nsrmp_bench.scoring import Submission
+    from nsrmp_bench.scoring import parse_predictions
 
-    sub = Submission.from_predictions(SubmissionHeader(split="smoke-v2"),
+    sub = parse_predictions(SubmissionHeader(split="smoke-v2"),
                                       [Prediction("e0", np.array(FINAL))])
     with pytest.raises(SubmissionError, match="header says split 'smoke-v2'"):
         score(sub, gold, n_boot=0)

@@ -13,7 +13,9 @@ import pytest
 
 from nsrmp_bench.dispatch import lowest_dispatch_env
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.leaderboard import build, load_entries
+from nsrmp_bench.leaderboard import load_entries
+from nsrmp_bench.results.publish import publish
+from nsrmp_bench.results.summary import Results
 
 pytestmark = pytest.mark.sim
 
@@ -36,12 +38,20 @@ def test_smoke_board_rebuilds_to_the_committed_bytes(smoke_dir: Path, tmp_path: 
     root = tmp_path / "data"
     root.mkdir()
     (root / "smoke-v2").symlink_to(smoke_dir, target_is_directory=True)
-    boards = build(entries, root, tmp_path / "out")
+    boards, _ = publish(entries, root, tmp_path / "out")
     assert [r["model"] for r in boards["smoke-v2/test"]] == [
         "oracle-v1", "nsrm-v1", "random-v1", "noop-v1"]
     for suffix in (".json", ".md"):
         rebuilt = (tmp_path / "out" / f"smoke-v2-test{suffix}").read_text()
         assert rebuilt == (BOARDS / f"smoke-v2-test{suffix}").read_text()
+    # the site's runs (with their breakdown) are the committed ones, but for where the
+    # predictions file lies relative to this site
+    def runs(folder: Path) -> list[dict[str, object]]:
+        out = [r.to_json() for r in Results.read(folder).on("smoke-v2/test")]
+        return [{k: v for k, v in r.items() if k != "predictions"} for r in out]
+
+    assert runs(tmp_path / "out" / "site") == runs(BOARDS / "site")
+    assert (tmp_path / "out" / "site" / "smoke-v2-test.html").is_file()
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +83,8 @@ def test_every_board_rebuilds_to_the_committed_bytes_under_any_dispatch(
         env.update(lowest_dispatch_env())
     out = tmp_path / "out"
     subprocess.run([sys.executable, "-m", "nsrmp_bench.cli.main", "leaderboard", "--data",
-                    str(board_data), "--entries", str(entries), "--out", str(out)],
+                    str(board_data), "--entries", str(entries), "--out", str(out),
+                    "--no-site"],
                    env=env, check=True, capture_output=True, timeout=300)
     for name in ("paper-v2-test", "smoke-v2-test"):
         for suffix in (".json", ".md"):

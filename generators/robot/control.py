@@ -5,7 +5,7 @@ couples the two fingers with a gear constraint (without it an object slides ~2 c
 independently controlled fingers), raises finger friction, and switches the physics to the
 profile's time step and solver setting. :class:`ArmController` moves the arm: smoothstep
 joint-space moves, and straight Cartesian lines tracked by inverse kinematics
-(:mod:`.robot_kinematics`) every ``ik_every`` physics steps, with joint velocity feed-forward
+(:mod:`.kinematics`) every ``ik_every`` physics steps, with joint velocity feed-forward
 so that position control follows the line to a fraction of a millimetre.
 """
 
@@ -22,9 +22,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.generators.world.robot_kinematics import PandaKinematics, down_rotation
-from nsrmp_bench.generators.world.robot_profiles import MotionProfile
-from nsrmp_bench.generators.world.robot_recorder import TrajectoryRecorder
+from nsrmp_bench.generators.robot.kinematics import PandaKinematics, down_rotation
+from nsrmp_bench.generators.robot.profiles import MotionProfile
+from nsrmp_bench.generators.robot.recorder import TrajectoryRecorder
 from nsrmp_bench.generators.world.world import PANDA_BASE, World
 
 __all__ = [
@@ -186,7 +186,7 @@ class ArmController:
 
     def ik(self, pos: Vec, yaw: float) -> list[float]:
         """Arm joint targets for the grasp target at ``pos`` pointing down with ``yaw``,
-        warm-started from the previous answer (see :mod:`.robot_kinematics`)."""
+        warm-started from the previous answer (see :mod:`.kinematics`)."""
         seed = self.joint_positions() if self._q_ik is None else self._q_ik
         res = self.kin.ik(pos, down_rotation(yaw), seed, posture(pos, yaw))
         self._q_ik = res.q

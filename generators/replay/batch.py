@@ -21,14 +21,14 @@ import numpy as np
 from nsrmp_bench.engine import Engine, TaskReport, in_task_order, open_engine
 from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import InvalidArgument, NSRMPError
-from nsrmp_bench.generators.world.replay import (
+from nsrmp_bench.generators.replay.episode import (
     PredictedPlacement,
     achieved_prediction,
     replay_episode,
     stage_scene,
 )
-from nsrmp_bench.generators.world.replay_targets import ReplayPlan
-from nsrmp_bench.generators.world.robot_profiles import get_profile
+from nsrmp_bench.generators.replay.plan import ReplayPlan
+from nsrmp_bench.generators.robot.profiles import get_profile
 from nsrmp_bench.generators.world.world import World
 from nsrmp_bench.scoring.projection import episode_camera, episode_initial_state
 from nsrmp_bench.scoring.submission import Prediction

@@ -3,7 +3,7 @@
 :func:`realise_with_robot` runs :func:`~nsrmp_bench.generators.world.realise.realise`
 (placement of the initial scene, settling, every acceptance check, rendering and
 measuring every state) on a view of the World in which each *step's* placement is a
-pick-and-place by the Panda (:func:`~nsrmp_bench.generators.world.robot.execute_step`)
+pick-and-place by the Panda (:func:`~nsrmp_bench.generators.robot.pick_and_place.execute_step`)
 instead of a teleport. The initial scene is placed as usual. The rendering it returns is
 the teleport pipeline's with ``executor="robot"``, the recorded :class:`Trajectory` and,
 in ``physics["robot"]``, every step's result (success, error to the symbolic target,
@@ -20,17 +20,17 @@ from typing import Any
 
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.episode import Rendering
-from nsrmp_bench.generators.world.realise import realise
-from nsrmp_bench.generators.world.robot import StepResult, execute_step, robot_joint_names
-from nsrmp_bench.generators.world.robot_profiles import (
+from nsrmp_bench.generators.robot.pick_and_place import StepResult, execute_step, robot_joint_names
+from nsrmp_bench.generators.robot.profiles import (
     ROBOT_EXECUTOR_ID,
     MotionProfile,
     get_profile,
 )
-from nsrmp_bench.generators.world.robot_recorder import (
+from nsrmp_bench.generators.robot.recorder import (
     concatenate_trajectories,
     empty_trajectory,
 )
+from nsrmp_bench.generators.world.realise import realise
 from nsrmp_bench.generators.world.world import World
 from nsrmp_bench.scene import Pose, Scene, State
 

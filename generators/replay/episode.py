@@ -1,8 +1,8 @@
 """Replaying a prediction with the robot: what the Panda achieves when it carries it out.
 
 :func:`replay_episode` puts an episode's initial scene into a :class:`World`, turns the
-prediction into moves (:mod:`.replay_targets`), executes each with the Panda
-(:func:`~nsrmp_bench.generators.world.robot.execute_step`) and measures the achieved
+prediction into moves (:mod:`.plan`), executes each with the Panda
+(:func:`~nsrmp_bench.generators.robot.pick_and_place.execute_step`) and measures the achieved
 poses and amodal boxes after every executed step through the episode's camera.
 :func:`achieved_prediction` turns the result into a prediction line for the normal
 scorer: its boxes are the achieved final boxes, so a plan is judged by what the robot did.
@@ -21,7 +21,7 @@ from nsrmp_bench.dsl.actions import target_pose
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.episode import Episode, Trajectory
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.generators.world.replay_targets import (
+from nsrmp_bench.generators.replay.plan import (
     SOURCES,
     PlannedMove,
     ReplayPlan,
@@ -29,7 +29,7 @@ from nsrmp_bench.generators.world.replay_targets import (
     plan_from_positions,
     plan_from_program,
 )
-from nsrmp_bench.generators.world.robot import (
+from nsrmp_bench.generators.robot.pick_and_place import (
     SUCCESS,
     StepResult,
     SuccessCriterion,
@@ -37,8 +37,8 @@ from nsrmp_bench.generators.world.robot import (
     poses_to_state,
     robot_joint_names,
 )
-from nsrmp_bench.generators.world.robot_profiles import MotionProfile, get_profile
-from nsrmp_bench.generators.world.robot_recorder import (
+from nsrmp_bench.generators.robot.profiles import MotionProfile, get_profile
+from nsrmp_bench.generators.robot.recorder import (
     concatenate_trajectories,
     empty_trajectory,
 )

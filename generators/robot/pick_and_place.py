@@ -12,8 +12,8 @@ For one step (:func:`execute_step`) the controller
 8. lets the objects settle and checks the result.
 
 The hand's yaw is chosen so that fingers and hand keep clear of neighbours at both ends
-(:mod:`.robot_grasp`); Cartesian moves are straight lines tracked by inverse kinematics
-and joint position control (:mod:`.robot_control`). Joint positions, end-effector pose
+(:mod:`.grasp`); Cartesian moves are straight lines tracked by inverse kinematics
+and joint position control (:mod:`.control`). Joint positions, end-effector pose
 and gripper opening are recorded at the profile's fixed rate.
 
 A step succeeds (:class:`SuccessCriterion`) when the object rests within 1.5 cm of its
@@ -41,13 +41,12 @@ from nsrmp_bench.dsl.actions import target_pose
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.episode import Trajectory
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.generators.world.realise import tilt_deg
-from nsrmp_bench.generators.world.robot_control import (
+from nsrmp_bench.generators.robot.control import (
     ArmController,
     panda_joints,
     robot_session,
 )
-from nsrmp_bench.generators.world.robot_grasp import (
+from nsrmp_bench.generators.robot.grasp import (
     GraspPlan,
     choose_grasp_yaw,
     grasp_height,
@@ -56,16 +55,17 @@ from nsrmp_bench.generators.world.robot_grasp import (
     travel_height,
     wrap_angle,
 )
-from nsrmp_bench.generators.world.robot_profiles import (
+from nsrmp_bench.generators.robot.profiles import (
     ROBOT_EXECUTOR_ID,
     MotionProfile,
     get_profile,
 )
-from nsrmp_bench.generators.world.robot_recorder import (
+from nsrmp_bench.generators.robot.recorder import (
     TrajectoryRecorder,
     concatenate_trajectories,
     empty_trajectory,
 )
+from nsrmp_bench.generators.world.realise import tilt_deg
 from nsrmp_bench.generators.world.world import PANDA_BASE, PANDA_REST, World
 from nsrmp_bench.scene import Pose, Scene, SceneObject, State
 

@@ -1,0 +1,83 @@
+"""``nsrmp-bench evaluate``: models and predictions files on every official test part.
+
+Example::
+
+    nsrmp-bench evaluate nsrm oracle noop random --data-root data --out results
+    nsrmp-bench evaluate my-preds.jsonl --data-root data --out results
+    nsrmp-bench evaluate nsrm oracle --data-root /shared/data --out /shared/results \
+        --engine dask --scheduler tcp://HOST:8786
+    nsrmp-bench plot results --out figures
+    nsrmp-bench report results --paper
+
+Model ids are run with ``predict`` (shipped checkpoint) and baseline ids like ``baseline``
+on every official test part found as ``ROOT/<split id>/<part>`` (or ``ROOT/<name>/<part>``);
+``--generate`` generates the missing ones first. A predictions file is scored on the part
+its header names. Writes ``OUT/summary.json``, ``OUT/<split>-<part>.csv`` and
+``OUT/predictions/``, and prints IoU-M with 95% intervals per model and split.
+Each (source, part) run is one task, as is each shard of ``--generate``: ``--workers N``
+runs them in a local pool (1: in this process), ``--engine dask`` on a Dask cluster; the
+figures do not depend on where they ran.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
+from nsrmp_bench.results.evaluate import evaluate
+from nsrmp_bench.results.summary import Results
+
+__all__ = ["add_arguments", "render_table", "run"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of the verb."""
+    parser.add_argument("sources", nargs="+", metavar="MODEL_OR_PREDICTIONS",
+                        help="learned model ids (nsrm), baseline ids (oracle, noop, random) "
+                             "or predictions files")
+    parser.add_argument("--data-root", required=True, type=Path,
+                        help="folder holding <split id>/<part>/ data (e.g. data/)")
+    parser.add_argument("--out", required=True, type=Path,
+                        help="results folder (summary.json, CSVs, predictions/)")
+    parser.add_argument("--generate", action="store_true",
+                        help="generate the official test parts missing under the root first")
+    parser.add_argument("--splits", nargs="+", default=None, metavar="SPLIT_ID",
+                        help="official split ids to run models and baselines on "
+                             "(default: all official test parts found)")
+    add_engine_arguments(parser, workers=2)
+    parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
+
+
+def render_table(results: Results) -> None:
+    """Print IoU-M [95% CI] per model (rows) and split part (columns)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    t = Table(title="IoU-M [95% CI] per split part (n instances)", title_justify="left")
+    t.add_column("model")
+    for split in results.splits:
+        t.add_column(split, justify="right")
+    for model in results.models:
+        cells = []
+        for split in results.splits:
+            run = results.run(model, split)
+            if run is None:
+                cells.append("")
+                continue
+            e = run.metric("iou_m")
+            cells.append(f"{e.value:.3f} [{e.low:.3f}, {e.high:.3f}] ({e.n})")
+        t.add_row(model, *cells)
+    Console().print(t)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Evaluate, write the results folder, print the table."""
+    say = None if args.quiet else print
+    with engine_from_args(args) as engine:
+        results = evaluate(args.sources, args.data_root, args.out, generate=args.generate,
+                           splits=args.splits, workers=args.workers, engine=engine, say=say)
+    if not args.quiet:
+        render_table(results)
+        print(f"wrote {args.out / 'summary.json'} and {len(results.splits)} CSV files")
+    return 0

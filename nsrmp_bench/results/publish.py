@@ -1,0 +1,55 @@
+"""Rebuilding the leaderboards together with their static site.
+
+:func:`publish` scores every entry once (with the per-category breakdown), writes the
+Markdown and JSON boards exactly as :func:`nsrmp_bench.leaderboard.build` does, and then
+fills the site folder (default ``leaderboards/site/``): ``summary.json`` of the entries'
+runs (the format ``evaluate`` writes, so ``plot`` and ``report`` read it), the figures
+(``figures/*.png``/``.svg``), the paper's tables (``paper-tables.md``/``.tex``) and the
+pages. The README's Results figures are the site's figures.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+from nsrmp_bench._optional import require
+from nsrmp_bench.leaderboard import Entry, build, load_entries
+from nsrmp_bench.results.figures import draw_figures
+from nsrmp_bench.results.paper_tables import write_report
+from nsrmp_bench.results.site import read_boards, write_site
+from nsrmp_bench.results.summary import Results, Run
+from nsrmp_bench.scoring.result import ScoreResult
+
+__all__ = ["publish", "write_site_files"]
+
+
+def write_site_files(results: Results, entries_dir: str | os.PathLike[str],
+                     boards_dir: str | os.PathLike[str],
+                     site_dir: str | os.PathLike[str]) -> list[Path]:
+    """Summary, figures, paper tables and pages of the site, from runs and board files."""
+    site = Path(site_dir)
+    results.write(site)
+    written = draw_figures(results, site / "figures", none_ok=True)
+    written += list(write_report(results, site, paper=True))
+    written += write_site(read_boards(boards_dir), load_entries(entries_dir), site)
+    return written
+
+
+def publish(entries_dir: str | os.PathLike[str], data_root: str | os.PathLike[str],
+            out_dir: str | os.PathLike[str],
+            site_dir: str | os.PathLike[str] | None = None,
+            ) -> tuple[dict[str, list[dict[str, Any]]], list[Path]]:
+    """Boards into ``out_dir`` and the site into ``site_dir`` (default ``out_dir/site``)."""
+    require("matplotlib")  # before minutes of scoring, not after
+    site = Path(site_dir) if site_dir is not None else Path(out_dir) / "site"
+    runs: list[Run] = []
+
+    def keep(entry: Entry, result: ScoreResult) -> None:
+        link = os.path.relpath(entry.predictions, os.path.normpath(site.absolute()))
+        runs.append(Run.from_score(result, model=entry.model, kind=entry.kind,
+                                   predictions=Path(link).as_posix()))
+
+    boards = build(entries_dir, data_root, out_dir, breakdown=True, on_result=keep)
+    return boards, write_site_files(Results(tuple(runs)), entries_dir, out_dir, site)

@@ -1,0 +1,62 @@
+"""Split roots: the directory ``generate --out DIR`` writes, holding one directory per part.
+
+``nsrmp-bench generate --split smoke-v2 --out data/smoke`` writes ``data/smoke/test/``
+(shards and ``manifest.json``); ``data/smoke`` is then a *split root*. Every reader of data
+(:func:`nsrmp_bench.storage.open`, and through it every verb taking ``--data``) accepts a
+split root when it knows which part to read (a predictions file's header names it:
+``smoke-v2/test``), and otherwise says which parts the root holds and what to pass.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.storage.manifest import MANIFEST_NAME
+
+__all__ = ["part_of_split", "resolve_part", "split_root_parts"]
+
+
+def split_root_parts(path: str | os.PathLike[str]) -> tuple[str, ...]:
+    """The finished parts (sub-directories with ``manifest.json``) of the split root
+    ``path``, sorted; ``()`` when ``path`` is not a directory or is a part itself."""
+    p = Path(path)
+    if not p.is_dir() or (p / MANIFEST_NAME).is_file():
+        return ()
+    return tuple(sorted(d.name for d in p.iterdir() if (d / MANIFEST_NAME).is_file()))
+
+
+def part_of_split(split: str | None) -> str | None:
+    """The part a split id names (``test`` for ``smoke-v2/test``), or None."""
+    if not split:
+        return None
+    part = split.partition("/")[2]
+    return part or None
+
+
+def resolve_part(path: str | os.PathLike[str], part: str | None = None) -> Path:
+    """``path`` itself, or its part directory when ``path`` is a split root.
+
+    For a split root, ``part`` (e.g. from a predictions header) picks the directory;
+    without one, or with one the root does not hold, :class:`InvalidArgument` names the
+    parts it holds and what to pass instead.
+    """
+    p = Path(path)
+    parts = split_root_parts(p)
+    if not parts:
+        if part is not None and (p / part).is_dir() and not (p / MANIFEST_NAME).is_file():
+            return p / part  # an unfinished part: its reader says how to finish it
+        return p
+    if part in parts:
+        return p / part
+    listed = ", ".join(parts)
+    suggestion = (f"pass {p / parts[0]}" if len(parts) == 1
+                  else f"pass one part's directory, e.g. {p / parts[-1]}")
+    if part is None:
+        msg = f"{p} is a split root holding the parts: {listed}; {suggestion}"
+    else:
+        msg = (f"{p} is a split root holding the parts: {listed}, not the part {part!r} the "
+               f"predictions are for; generate that part (generate --part {part}) or "
+               f"{suggestion} with predictions for it")
+    raise InvalidArgument(msg)
