@@ -53,10 +53,14 @@ def test_one_worker_one_shard_writes_the_local_bytes(smoke_dir: Path, tmp_path: 
 
 @pytest.fixture()
 def cluster() -> Iterator[object]:
+    import dask
     from distributed import LocalCluster
 
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None) as c:
+    # without Dask's default trim threshold, as DaskEngine starts its own clusters (the
+    # nannies would otherwise leak it into this process and later workers warn about it)
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}), \
+            LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                         dashboard_address=None) as c:
         yield c
 
 
