@@ -241,8 +241,9 @@ class DaskEngine(Engine):
                         ready.extend(finished)
                     except TimeoutError:
                         pass
-                    except CancelledError as exc:  # Dask cancels them all when it loses the
-                        raise self._lost(client.status, len(tasks) - len(pending),  # scheduler
+                    except (CancelledError, self._dd.comm.CommClosedError) as exc:  # Dask
+                        # cancels them all, or a comm closes, when it loses the scheduler
+                        raise self._lost(client.status, len(tasks) - len(pending),
                                          len(tasks)) from exc
                 while not inbox.empty():
                     tally.update(*inbox.get())
@@ -272,7 +273,7 @@ class DaskEngine(Engine):
                 f"limit?); look at the workers' logs, then {_RERUN}"
             )
             raise EngineError(msg) from exc
-        except CancelledError as exc:
+        except (CancelledError, self._dd.comm.CommClosedError) as exc:  # lost mid-gather
             raise self._lost(self.client.status, done, total) from exc
 
     def _lost(self, status: str, done: int, total: int) -> EngineError:
