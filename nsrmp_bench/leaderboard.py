@@ -21,6 +21,7 @@ from nsrmp_bench.canonical import canonical_json
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
+from nsrmp_bench.storage.split_root import find_part
 
 __all__ = ["COLUMNS", "Entry", "build", "load_entries", "render_markdown"]
 
@@ -126,7 +127,8 @@ def build(
     breakdown: bool = False,
     on_result: Callable[[Entry, ScoreResult], None] | None = None,
 ) -> dict[str, list[dict[str, Any]]]:
-    """Score every entry against ``data_root/<split id>/<part>`` and write the boards.
+    """Score every entry against ``data_root/<split id>/<part>`` (or ``<name>/<part>``,
+    :func:`~nsrmp_bench.storage.split_root.find_part`) and write the boards.
 
     ``on_result`` sees each entry's full result (with the per-category breakdown when
     ``breakdown``; the boards' figures are the same either way).
@@ -134,10 +136,11 @@ def build(
     boards: dict[str, list[dict[str, Any]]] = {}
     for entry in load_entries(entries_dir):
         split_id, part = entry.split.split("/", 1)
-        data = Path(data_root) / split_id / part
-        if not (data / "manifest.json").is_file():
+        data = find_part(data_root, entry.split)
+        if data is None:
             msg = (
-                f"no data for {entry.split} at {data}; generate it first: "
+                f"no data for {entry.split} at {Path(data_root) / split_id / part}; "
+                f"generate it first: "
                 f"nsrmp-bench generate --split {split_id} --out {Path(data_root) / split_id}"
             )
             raise InvalidArgument(msg)

@@ -45,7 +45,7 @@ def pack(data_dir: str | os.PathLike[str], out: str | os.PathLike[str]) -> list[
     """Copy a generated split (``data_dir/<part>/``) into ``out/<split>/`` with its registry."""
     src = Path(data_dir)
     parts = [src / p for p in split_root_parts(src)] or [src]
-    if not parts or not (parts[0] / "manifest.json").is_file():
+    if not (parts[0] / "manifest.json").is_file():
         msg = f"{src} holds no part directory with manifest.json; generate the split first"
         raise InvalidArgument(msg)
     entries: list[RegistryEntry] = []

@@ -48,13 +48,14 @@ def _from_specs(split_ids: list[str]) -> Iterator[tuple[str, str, SymbolicEpisod
 
 def _from_data(paths: list[Path]) -> Iterator[tuple[str, str, SymbolicEpisode]]:
     from nsrmp_bench.storage.reader import open as open_data
+    from nsrmp_bench.storage.split_root import split_root_parts
 
     dirs: list[Path] = []
     for p in paths:
         if (p / "manifest.json").is_file() or p.is_file():
             dirs.append(p)
         else:
-            dirs.extend(sorted(q for q in p.iterdir() if (q / "manifest.json").is_file()))
+            dirs.extend(p / q for q in split_root_parts(p))
     for d in dirs:
         with open_data(d) as collection:
             for ep in collection.iter_episodes(images=False):

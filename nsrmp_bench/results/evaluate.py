@@ -39,6 +39,7 @@ from nsrmp_bench.scoring.reader import read_submission_pending
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
 from nsrmp_bench.split_specs import OFFICIAL_SPLITS, list_splits, load_split
+from nsrmp_bench.storage.split_root import find_part
 
 __all__ = [
     "Job", "Source", "evaluate", "evaluate_job", "find_part", "long_table",
@@ -90,16 +91,6 @@ def official_test_parts() -> list[str]:
     known = set(list_splits())
     return [f"{s}/test" for s in OFFICIAL_SPLITS
             if s in known and "test" in load_split(s).parts]
-
-
-def find_part(root: Path, split_part: str) -> Path | None:
-    """The finished data folder of ``split_part`` under ``root``, if there is one."""
-    split_id, part = split_part.split("/", 1)
-    short = split_id.rsplit("-v", 1)[0]
-    for folder in (root / split_id / part, root / short / part):
-        if (folder / "manifest.json").is_file():
-            return folder
-    return None
 
 
 def _wanted_parts(splits: Sequence[str] | None) -> list[str]:

@@ -15,7 +15,7 @@ from pathlib import Path
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage.manifest import MANIFEST_NAME
 
-__all__ = ["part_of_split", "resolve_part", "split_root_parts"]
+__all__ = ["find_part", "part_of_split", "resolve_part", "split_root_parts"]
 
 
 def split_root_parts(path: str | os.PathLike[str]) -> tuple[str, ...]:
@@ -60,3 +60,14 @@ def resolve_part(path: str | os.PathLike[str], part: str | None = None) -> Path:
                f"predictions are for; generate that part (generate --part {part}) or "
                f"{suggestion} with predictions for it")
     raise InvalidArgument(msg)
+
+
+def find_part(root: str | os.PathLike[str], split_part: str) -> Path | None:
+    """The finished data folder of ``split_part`` (``paper-v2/test``) under the data root
+    ``root``: ``root/paper-v2/test``, else ``root/paper/test``; None when neither is."""
+    split_id, part = split_part.split("/", 1)
+    short = split_id.rsplit("-v", 1)[0]
+    for folder in (Path(root) / split_id / part, Path(root) / short / part):
+        if (folder / MANIFEST_NAME).is_file():
+            return folder
+    return None
