@@ -26,11 +26,17 @@ class ModelEntry:
     module: str  # sub-package with train_<name>(...) and a <Name>Predictor class
     trainer: str
     predictor: str
+    config: str  # the config dataclass in ``module`` (``train --set`` overrides its fields)
 
     def train_fn(self) -> Callable[..., Path]:
         """The training entry point."""
         fn: Callable[..., Path] = getattr(importlib.import_module(self.module), self.trainer)
         return fn
+
+    def config_cls(self) -> Callable[[], Any]:
+        """The model's config dataclass (its defaults are the shipped run's settings)."""
+        cls: Callable[[], Any] = getattr(importlib.import_module(self.module), self.config)
+        return cls
 
     def predictor_cls(self) -> Callable[[Path], Any]:
         """The class that loads a checkpoint and predicts."""
@@ -44,7 +50,7 @@ MODELS: dict[str, ModelEntry] = {
     for m in (
         ModelEntry("nsrm-v1", "neuro-symbolic reference model (gold boxes), learnt from "
                    "initial and final scenes", "nsrmp_bench.reference_model.nsrm",
-                   "train_nsrm", "NSRMPredictor"),
+                   "train_nsrm", "NSRMPredictor", "NSRMConfig"),
     )
 }
 

@@ -16,9 +16,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from nsrmp_bench.errors import InvalidArgument
+
+if TYPE_CHECKING:
+    from nsrmp_bench.reference_model.registry import ModelEntry
 
 __all__ = ["add_arguments", "run"]
 
@@ -35,10 +38,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-def _config(entry_id: str, overrides: list[str]) -> Any:
-    from nsrmp_bench.reference_model.nsrm.config import NSRMConfig
-
-    cfg = NSRMConfig()
+def _config(entry: ModelEntry, overrides: list[str]) -> Any:
+    entry_id = entry.id
+    cfg = entry.config_cls()()
     fields = {f.name: f for f in dataclasses.fields(cfg)}
     changes: dict[str, Any] = {}
     for item in overrides:
@@ -64,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     if args.seed < 0:
         msg = f"--seed must be a non-negative integer, got {args.seed}"
         raise InvalidArgument(msg)
-    cfg = _config(entry.id, args.set)
+    cfg = _config(entry, args.set)
     best = entry.train_fn()(args.data, args.out, seed=args.seed, config=cfg, quiet=args.quiet)
     print(f"{entry.id}: best checkpoint {best}; predict with: nsrmp-bench predict "
           f"{entry.id.rsplit('-v', 1)[0]} --data {args.data / 'test'} --out P.jsonl "

@@ -28,7 +28,7 @@ from nsrmp_bench.reference_model.tokens import Vocabulary
 from nsrmp_bench.reference_model.training import train_stages
 from nsrmp_bench.scoring.submission import Prediction
 
-__all__ = ["MODEL_ID", "NSRMPredictor", "train_nsrm", "val_iou_m"]
+__all__ = ["MODEL_ID", "NSRMConfig", "NSRMPredictor", "train_nsrm", "val_iou_m"]
 
 MODEL_ID = "nsrm-v1"
 
