@@ -2,7 +2,7 @@
 
 Examples::
 
-    nsrmp-bench audit                         # regenerate every official split symbolically
+    nsrmp-bench audit                         # regenerate every shipped split symbolically
     nsrmp-bench audit data/paper data/attributes   # audit generated data
 
 Exits 1 if any seed, id, scene or (scene, program, instruction) triple is shared across
@@ -20,7 +20,7 @@ from rich.table import Table
 
 from nsrmp_bench.audit import audit
 from nsrmp_bench.episode import SymbolicEpisode
-from nsrmp_bench.split_specs import OFFICIAL_SPLITS, list_splits, load_split
+from nsrmp_bench.split_specs import list_splits, load_split
 
 __all__ = ["add_arguments", "run"]
 
@@ -28,10 +28,11 @@ __all__ = ["add_arguments", "run"]
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("data", nargs="*", type=Path,
-                        help="split or part directories; none: regenerate the official "
-                        "splits symbolically from their specs")
+                        help="split or part directories; none: regenerate every shipped "
+                        "split (the official set and training material such as dense5x-v2) "
+                        "symbolically from its spec")
     parser.add_argument("--splits", nargs="+", default=None,
-                        help="split ids for the symbolic audit (default: the official set)")
+                        help="split ids for the symbolic audit (default: every shipped split)")
 
 
 def _from_specs(split_ids: list[str]) -> Iterator[tuple[str, str, SymbolicEpisode]]:
@@ -70,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
         source = _from_data(args.data)
         what = "generated data"
     else:
-        ids = args.splits or [s for s in OFFICIAL_SPLITS if s in list_splits()]
+        ids = args.splits or list(list_splits())
         for sid in ids:
             load_split(sid)
         source = _from_specs(ids)
