@@ -45,7 +45,8 @@ def _region_l1(model: ReconstructionNet, patches: Patches, rows: torch.Tensor) -
     target = patches.targets[rows].float() / 255.0
     region = torch.maximum(x[:, 9:10], x[:, 10:11]).float() / 255.0
     err = (model(x) - target).abs() * region
-    return err.sum() / (3.0 * region.sum()).clamp_min(1.0)
+    loss: torch.Tensor = err.sum() / (3.0 * region.sum()).clamp_min(1.0)
+    return loss
 
 
 def val_region_ssim(model: ReconstructionNet, patches: Patches) -> float:
@@ -99,7 +100,7 @@ def train_reconstruction(data: Path, out: Path, *, seed: int = 0,
         train, val = (Patches(train.inputs[:cut], train.targets[:cut]),
                       Patches(train.inputs[cut:], train.targets[cut:]))
     read_seconds = time.perf_counter() - t0
-    model = ReconstructionNet(cfg.channels, INPUT_CHANNELS, plate.shape[:2])
+    model = ReconstructionNet(cfg.channels, INPUT_CHANNELS, plate.shape[:2], cfg.head_init_std)
     model.plate.copy_(torch.from_numpy(plate))
     out.mkdir(parents=True, exist_ok=True)
     (out / "config.json").write_text(json.dumps(cfg.to_dict(), indent=1) + "\n", "utf-8")

@@ -17,10 +17,11 @@ class ReconstructionConfig:
     patch: int = 40  # training patch side (pixels), one around each moved box
     margin: int = 3  # pixels the network's region extends beyond the boxes
     plate_episodes: int = 300  # initial images whose per-pixel median is the plate
-    epochs: int = 6
+    head_init_std: float = 0.0  # 0: the untrained network outputs the composite exactly
+    epochs: int = 3
     batch_size: int = 32
     lr: float = 2e-3
-    train_episodes: int = 2000  # the first this many training episodes (0: all)
+    train_episodes: int = 1000  # the first this many training episodes (0: all)
     val_episodes: int = 150  # the first this many validation episodes
     threads: int = 2
 

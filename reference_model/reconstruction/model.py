@@ -26,7 +26,8 @@ class ReconstructionNet(nn.Module):
     plate: Tensor
 
     def __init__(self, channels: int = 16, in_channels: int = 11,
-                 image_size: tuple[int, int] = (240, 320)) -> None:
+                 image_size: tuple[int, int] = (240, 320), head_init_std: float = 0.0
+                 ) -> None:
         super().__init__()
         # the empty scene (H, W, 3), set from the training images (part of the checkpoint)
         self.register_buffer("plate", torch.zeros((*image_size, 3), dtype=torch.uint8))
@@ -39,7 +40,9 @@ class ReconstructionNet(nn.Module):
         self.up2 = nn.ConvTranspose2d(2 * c, c, 2, stride=2)
         self.dec1 = _block(2 * c, c)
         self.head = nn.Conv2d(c, 3, 1)
-        nn.init.zeros_(self.head.weight)  # starts as the composite itself
+        # with std 0 the untrained network outputs the composite itself
+        nn.init.normal_(self.head.weight, std=head_init_std)
+        assert self.head.bias is not None
         nn.init.zeros_(self.head.bias)
 
     def forward(self, x: Tensor) -> Tensor:
@@ -57,4 +60,5 @@ class ReconstructionNet(nn.Module):
         d2 = self.dec2(torch.cat([self.up3(e3), e2], 1))
         d1 = self.dec1(torch.cat([self.up2(d2), e1], 1))
         painted = (comp + self.head(d1)).clamp(0.0, 1.0)
-        return before * (1.0 - region) + painted * region
+        out: Tensor = before * (1.0 - region) + painted * region
+        return out

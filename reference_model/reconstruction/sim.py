@@ -34,8 +34,8 @@ class SimRenderer:
 
         r = episode.rendering
         assert r is not None
-        settings = {k: tuple(v) if isinstance(v, list) else v
-                    for k, v in dict(r.physics.get("world", {})).items()}
+        settings: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v
+                                    for k, v in dict(r.physics.get("world", {})).items()}
         key = (r.camera, json.dumps(settings, sort_keys=True))
         world = self._worlds.get(key)
         if world is None:
