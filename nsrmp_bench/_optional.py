@@ -31,6 +31,7 @@ _EXTRA_OF: dict[str, str] = {
     "dask": "dask",
     "distributed": "dask",
     "matplotlib": "plot",
+    "skimage": "reconstruction",
 }
 
 

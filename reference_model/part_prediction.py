@@ -28,6 +28,10 @@ def predict_part(model_name: str, data: Path, out: Path,
         msg = f"--data {data} does not exist; pass a split part's data directory"
         raise InvalidArgument(msg)
     model = load_model(model_name, checkpoint)
+    if not hasattr(model, "predict"):
+        msg = (f"{model.model_id} makes images, not a predictions file; run it over one "
+               "with `nsrmp-bench reconstruct P.jsonl --data DATA --out DIR`")
+        raise InvalidArgument(msg)
     ds = EpisodeDataset(resolve_part(data))
     items = [ds[i] for i in range(len(ds))]
     first = ds.collection.episode(0, images=False).rendering

@@ -51,6 +51,10 @@ MODELS: dict[str, ModelEntry] = {
         ModelEntry("nsrm-v1", "neuro-symbolic reference model (gold boxes), learnt from "
                    "initial and final scenes", "nsrmp_bench.reference_model.nsrm",
                    "train_nsrm", "NSRMPredictor", "NSRMConfig"),
+        ModelEntry("reconstruction-v1", "scene reconstruction: the image after each "
+                   "predicted step from the image before it and the moved boxes (U-Net)",
+                   "nsrmp_bench.reference_model.reconstruction", "train_reconstruction",
+                   "ReconstructionPredictor", "ReconstructionConfig"),
     )
 }
 

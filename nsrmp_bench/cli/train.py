@@ -68,7 +68,12 @@ def run(args: argparse.Namespace) -> int:
         raise InvalidArgument(msg)
     cfg = _config(entry, args.set)
     best = entry.train_fn()(args.data, args.out, seed=args.seed, config=cfg, quiet=args.quiet)
-    print(f"{entry.id}: best checkpoint {best}; predict with: nsrmp-bench predict "
-          f"{entry.id.rsplit('-v', 1)[0]} --data {args.data / 'test'} --out P.jsonl "
-          f"--checkpoint {best}")
+    name = entry.id.rsplit("-v", 1)[0]
+    if hasattr(entry.predictor_cls(), "predict"):
+        use = (f"predict with: nsrmp-bench predict {name} --data {args.data / 'test'} "
+               f"--out P.jsonl --checkpoint {best}")
+    else:  # an image model (reconstruction): it runs over a predictions file
+        use = (f"run it with: nsrmp-bench reconstruct P.jsonl --data {args.data / 'test'} "
+               f"--out DIR --checkpoint {best}")
+    print(f"{entry.id}: best checkpoint {best}; {use}")
     return 0
