@@ -27,6 +27,7 @@ class ModelEntry:
     trainer: str
     predictor: str
     config: str  # the config dataclass in ``module`` (``train --set`` overrides its fields)
+    label: str = ""  # said beside the id wherever its results are shown (e.g. "not CLIPort")
 
     def train_fn(self) -> Callable[..., Path]:
         """The training entry point."""
@@ -51,6 +52,14 @@ MODELS: dict[str, ModelEntry] = {
         ModelEntry("nsrm-v1", "neuro-symbolic reference model (gold boxes), learnt from "
                    "initial and final scenes", "nsrmp_bench.reference_model.nsrm",
                    "train_nsrm", "NSRMPredictor", "NSRMConfig"),
+        ModelEntry("dense-v1", "dense baseline, not CLIPort: a from-scratch two-stream FCN "
+                   "from RGB-D and the instruction to pick and place heatmaps, trained on "
+                   "paper-v2/train's single-step episodes", "nsrmp_bench.reference_model.dense",
+                   "train_dense", "DensePredictor", "DenseConfig", "not CLIPort"),
+        ModelEntry("dense5x-v1", "dense baseline, not CLIPort, on 5x the data "
+                   "(dense5x-v2/train, selected on paper-v2/val)",
+                   "nsrmp_bench.reference_model.dense", "train_dense5x", "Dense5xPredictor",
+                   "Dense5xConfig", "not CLIPort, 5x data"),
     )
 }
 

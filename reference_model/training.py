@@ -62,14 +62,14 @@ def _save(path: Path, payload: dict[str, Any]) -> None:
 
 def train_stages(model: nn.Module, stages: Sequence[Stage], out: Path, *, seed: int,
                  validate: Callable[[Stage], float], on_best: Callable[[], None],
-                 quiet: bool = False) -> TrainState:
+                 quiet: bool = False, score_name: str = "val_iou_m") -> TrainState:
     """Run ``stages`` (resuming from ``out/last.pt`` if there), selecting on ``validate``.
 
     ``validate`` returns the validation score of the model (higher is better) after each
     epoch of a stage;
     ``on_best`` is called when it improves (the caller writes its best checkpoint); only
     stages that validate the model as it is used (``uses_splitter``) take part, and if none
-    ran, the last model is the one kept.
+    ran, the last model is the one kept. ``score_name`` names the score in the log.
     """
     out.mkdir(parents=True, exist_ok=True)
     state = TrainState()
@@ -126,13 +126,13 @@ def train_stages(model: nn.Module, stages: Sequence[Stage], out: Path, *, seed: 
                         on_best()
                     state.epoch = epoch + 1
                     record = {"stage": stage.name, "epoch": epoch + 1,
-                              "loss": round(total / n_batches, 5), "val_iou_m": round(score, 5),
+                              "loss": round(total / n_batches, 5), score_name: round(score, 5),
                               "best": improved, "seconds": round(state.seconds, 1)}
                     _save(ckpt, {"model": model.state_dict(), "optim": optim.state_dict(),
                                  "state": {**state.__dict__, "stage": si}})
                     log.write(json.dumps(record) + "\n")  # after the checkpoint it records
                     log.flush()
-                    bar.update(task, info=f"loss {total / n_batches:.3f}  val IoU-M {score:.3f}")
+                    bar.update(task, info=f"loss {total / n_batches:.3f}  {score_name} {score:.3f}")
             state.stage, state.epoch = si + 1, 0
             _save(ckpt, {"model": model.state_dict(), "state": dict(state.__dict__)})
         if state.best == float("-inf"):  # no selecting stage ran: keep the last model
