@@ -75,7 +75,8 @@ def _train(model_id: str, data: Path, out: Path, seed: int, cfg: DenseConfig,
         raise InvalidArgument(msg)
     torch.set_num_threads(cfg.threads)
     t0 = time.perf_counter()
-    train, vocab = encode_part(train_dir, None, cfg.scale, single_step=True, targets=True)
+    train, vocab = encode_part(train_dir, None, cfg.scale, single_step=True, targets=True,
+                               workers=cfg.read_workers)
     val, _ = encode_part(val_dir, vocab, cfg.scale, single_step=True, targets=True,
                          limit=cfg.val_limit)
     read_seconds = time.perf_counter() - t0

@@ -24,6 +24,7 @@ class DenseConfig:
     val: str = "val"  # the validation part, relative to --data
     val_limit: int = 500  # validate on at most this many single-step val episodes
     threads: int = 2
+    read_workers: int = 2  # processes that read and pool the training part's images
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able form."""

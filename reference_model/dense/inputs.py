@@ -101,6 +101,51 @@ def _centres(boxes: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
     return np.stack([(boxes[:, 0] + boxes[:, 2]) / 2, (boxes[:, 1] + boxes[:, 3]) / 2], 1)
 
 
+@dataclass
+class _Record:
+    """One episode, encoded (numpy, so that reader processes can return it)."""
+
+    id: str
+    rgb: np.ndarray[Any, Any]  # (3, h, w) uint8
+    depth: np.ndarray[Any, Any]  # (1, h, w) float16
+    size: tuple[int, int]
+    boxes: np.ndarray[Any, Any]
+    text: str
+    target: tuple[int, np.ndarray[Any, Any], np.ndarray[Any, Any]] | None
+
+
+def _record(item: Mapping[str, Any], scale: int, targets: bool) -> _Record:
+    rgb, depth, size = _input_row(item, scale)
+    return _Record(str(item["id"]), rgb.numpy(), depth.numpy(), size,
+                   np.asarray(_np(item["inputs"]["boxes"]), dtype=np.float64),
+                   str(item["inputs"]["instruction"]),
+                   _target_row(item) if targets else None)
+
+
+def _assemble(records: list[_Record], vocab: Vocabulary | None, scale: int,
+              targets: bool) -> tuple[DenseInputs, Vocabulary]:
+    if not records:
+        msg = "no episodes to encode; the data holds no (single-step) episodes"
+        raise InvalidArgument(msg)
+    if vocab is None:
+        vocab = Vocabulary.build(r.text for r in records)
+    toks = [vocab.encode(r.text) or [PAD] for r in records]
+    tokens = torch.full((len(toks), max(len(t) for t in toks)), PAD, dtype=torch.long)
+    for i, t in enumerate(toks):
+        tokens[i, : len(t)] = torch.tensor(t)
+    enc = DenseInputs([r.id for r in records], tokens,
+                      torch.from_numpy(np.stack([r.rgb for r in records])),
+                      torch.from_numpy(np.stack([r.depth for r in records])),
+                      [r.boxes for r in records], records[0].size, scale)
+    if targets:
+        gold = [r.target for r in records if r.target is not None]
+        enc.pick = cells_of(_centres(np.stack([g[1] for g in gold])), enc)
+        enc.place = cells_of(_centres(np.stack([g[2] for g in gold])), enc)
+        enc.subject = torch.tensor([g[0] for g in gold], dtype=torch.long)
+        enc.place_box = torch.from_numpy(np.stack([g[2] for g in gold]))
+    return enc, vocab
+
+
 def encode_items(items: Iterable[Mapping[str, Any]], vocab: Vocabulary | None, scale: int,
                  *, targets: bool) -> tuple[DenseInputs, Vocabulary]:
     """Encode dataset items in one pass (images are pooled as they are read).
@@ -109,43 +154,16 @@ def encode_items(items: Iterable[Mapping[str, Any]], vocab: Vocabulary | None, s
     first step's subject's box centres before and after the step (the gold). Without
     ``vocab`` the vocabulary is built from these items' instructions (training).
     """
-    ids: list[str] = []
-    boxes: list[np.ndarray[Any, Any]] = []
-    rgbs: list[Tensor] = []
-    depths: list[Tensor] = []
-    texts: list[str] = []
-    subjects: list[int] = []
-    picks: list[np.ndarray[Any, Any]] = []
-    places: list[np.ndarray[Any, Any]] = []
-    size = (0, 0)
-    for item in items:
-        rgb, depth, size = _input_row(item, scale)
-        rgbs.append(rgb)
-        depths.append(depth)
-        ids.append(str(item["id"]))
-        boxes.append(np.asarray(_np(item["inputs"]["boxes"]), dtype=np.float64))
-        texts.append(str(item["inputs"]["instruction"]))
-        if targets:
-            subject, pick, place = _target_row(item)
-            subjects.append(subject)
-            picks.append(pick)
-            places.append(place)
-    if not ids:
-        msg = "no episodes to encode; the data holds no (single-step) episodes"
-        raise InvalidArgument(msg)
-    if vocab is None:
-        vocab = Vocabulary.build(texts)
-    toks = [vocab.encode(t) or [PAD] for t in texts]
-    tokens = torch.full((len(toks), max(len(t) for t in toks)), PAD, dtype=torch.long)
-    for i, t in enumerate(toks):
-        tokens[i, : len(t)] = torch.tensor(t)
-    enc = DenseInputs(ids, tokens, torch.stack(rgbs), torch.stack(depths), boxes, size, scale)
-    if targets:
-        enc.pick = cells_of(_centres(np.stack(picks)), enc)
-        enc.place = cells_of(_centres(np.stack(places)), enc)
-        enc.subject = torch.tensor(subjects, dtype=torch.long)
-        enc.place_box = torch.from_numpy(np.stack(places))
-    return enc, vocab
+    return _assemble([_record(item, scale, targets) for item in items], vocab, scale,
+                     targets)
+
+
+def _read_chunk(job: tuple[str, list[int], int, bool]) -> list[_Record]:
+    from nsrmp_bench.dataset import EpisodeDataset
+
+    path, rows, scale, targets = job
+    ds = EpisodeDataset(path)
+    return [_record(ds[i], scale, targets) for i in rows]
 
 
 def cells_of(points: np.ndarray[Any, Any], enc: DenseInputs) -> Tensor:
@@ -164,10 +182,11 @@ def cell_centres(cells: Tensor, enc: DenseInputs) -> np.ndarray[Any, Any]:
 
 
 def encode_part(path: str | Path, vocab: Vocabulary | None, scale: int, *,
-                single_step: bool, targets: bool, limit: int | None = None
-                ) -> tuple[DenseInputs, Vocabulary]:
+                single_step: bool, targets: bool, limit: int | None = None,
+                workers: int = 1) -> tuple[DenseInputs, Vocabulary]:
     """Read a part through ``EpisodeDataset`` (only its single-step episodes if asked, the
-    first ``limit``) and encode it with :func:`encode_items`."""
+    first ``limit``) and encode it as :func:`encode_items` does; ``workers`` > 1 reads
+    contiguous chunks in that many spawned processes (the result is the same)."""
     from nsrmp_bench.dataset import EpisodeDataset
 
     ds = EpisodeDataset(path)
@@ -176,4 +195,13 @@ def encode_part(path: str | Path, vocab: Vocabulary | None, scale: int, *,
             else list(range(len(ds))))
     if limit is not None:
         rows = rows[:limit]
-    return encode_items((ds[int(i)] for i in rows), vocab, scale, targets=targets)
+    rows = [int(i) for i in rows]
+    if workers <= 1 or len(rows) < 100:
+        return encode_items((ds[i] for i in rows), vocab, scale, targets=targets)
+    import multiprocessing
+
+    size = -(-len(rows) // (4 * workers))
+    jobs = [(str(path), rows[k:k + size], scale, targets) for k in range(0, len(rows), size)]
+    with multiprocessing.get_context("spawn").Pool(workers) as pool:
+        records = [r for chunk in pool.map(_read_chunk, jobs) for r in chunk]
+    return _assemble(records, vocab, scale, targets)

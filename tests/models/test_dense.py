@@ -17,7 +17,7 @@ torch = pytest.importorskip("torch")
 pytestmark = [pytest.mark.torch, pytest.mark.sim]
 
 TINY = ["--set", "epochs=14", "--set", "batch_size=16", "--set", "width=16", "--set", "lr=0.004",
-        "--set", "val_limit=64"]
+        "--set", "val_limit=64", "--set", "read_workers=1"]
 
 
 def _score(pred: Path, data: Path, tmp: Path) -> dict[str, Any]:
@@ -67,7 +67,8 @@ def test_same_seed_same_checkpoint_bytes(tiny_paper: Path, tmp_path: Path) -> No
     for name in ("a", "b"):
         out = tmp_path / name
         assert main(["train", "dense", "--data", str(tiny_paper), "--out", str(out), "--quiet",
-                     "--set", "epochs=1", "--set", "width=8", "--set", "val_limit=8"]) == 0
+                     "--set", "epochs=1", "--set", "width=8", "--set", "val_limit=8",
+                     "--set", "read_workers=1"]) == 0
         runs.append((out / "best.pt").read_bytes())
     assert runs[0] == runs[1]
 
