@@ -142,5 +142,5 @@ def test_bad_input_is_a_clear_error(tiny_paper: Path, tmp_path: Path,
                  str(tmp_path / "r")]) == 2
     assert "is not a finished part; pass --set val=PATH" in capsys.readouterr().err
     assert main(["train", "dense", "--data", str(tiny_paper), "--out", str(tmp_path / "r"),
-                 "--set", "scale=7"]) == 2
+                 "--set", "scale=7", "--set", "read_workers=1"]) == 2
     assert "not divisible by twice the scale 7" in capsys.readouterr().err
