@@ -48,13 +48,13 @@ def main() -> None:
     print(f"\nevaluated in {time.perf_counter() - t0:.0f} s\n")
     tables = render_markdown(results, paper=True)
     print(tables[tables.index(f"**{TABLE_II.title}**"):])
-    print("| model | id. overall [95% CI] | pl. overall [95% CI] | n | paper (id / pl) |")
-    print("|---|---|---|---|---|")
+    print("| model | id. overall [95% CI] | pl. overall [95% CI] | n |")
+    print("|---|---|---|---|")
     for name, (pid, ppl) in PAPER.items():
-        print(f"| paper: {name} | {pid:.2f} | {ppl:.2f} | | |")
+        print(f"| paper: {name} | {pid:.2f} | {ppl:.2f} | |")
     for run in results.on("paper-v2/test"):
         ident, place = run.metric("identification"), run.metric("placement")
-        print(f"| {run_label(run.model)} | {_ci(ident)} | {_ci(place)} | {ident.n} | |")
+        print(f"| {run_label(run.model)} | {_ci(ident)} | {_ci(place)} | {ident.n} |")
     print("\n| model | part | IoU | IoU-M [95% CI] |\n|---|---|---|---|")
     for run in results.runs:
         print(f"| {run.model} | {run.split} | {run.metric('iou').value:.3f} | "
