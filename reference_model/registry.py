@@ -27,6 +27,7 @@ class ModelEntry:
     trainer: str
     predictor: str
     config: str  # the config dataclass in ``module`` (``train --set`` overrides its fields)
+    label: str = ""  # said beside the id wherever its results are shown (e.g. "not CLIPort")
 
     def train_fn(self) -> Callable[..., Path]:
         """The training entry point."""
@@ -55,6 +56,14 @@ MODELS: dict[str, ModelEntry] = {
                    "predicted step from the image before it and the moved boxes (U-Net)",
                    "nsrmp_bench.reference_model.reconstruction", "train_reconstruction",
                    "ReconstructionPredictor", "ReconstructionConfig"),
+        ModelEntry("dense-v1", "dense baseline, not CLIPort: a from-scratch two-stream FCN "
+                   "from RGB-D and the instruction to pick and place heatmaps, trained on "
+                   "paper-v2/train's single-step episodes", "nsrmp_bench.reference_model.dense",
+                   "train_dense", "DensePredictor", "DenseConfig", "not CLIPort"),
+        ModelEntry("dense5x-v1", "dense baseline, not CLIPort, on 5x the data "
+                   "(dense5x-v2/train, selected on paper-v2/val)",
+                   "nsrmp_bench.reference_model.dense", "train_dense5x", "Dense5xPredictor",
+                   "Dense5xConfig", "not CLIPort, 5x data"),
     )
 }
 

@@ -35,6 +35,7 @@ __all__ = [
     "render_latex",
     "render_markdown",
     "replace_block",
+    "run_label",
     "table_rows",
     "write_report",
 ]
@@ -145,11 +146,20 @@ def _paper_row(table: PaperTable, data: dict[str, Any]) -> Row:
     return Row(f"paper: {data['model']}", True, tuple(values))
 
 
+def run_label(model: str) -> str:
+    """``ours: MODEL``, with the registered model's label (``dense-v1 (not CLIPort)``)."""
+    from nsrmp_bench.reference_model.registry import MODELS
+
+    entry = MODELS.get(model)
+    return f"ours: {model} ({entry.label})" if entry is not None and entry.label else (
+        f"ours: {model}")
+
+
 def table_rows(table: PaperTable, results: Results, *, paper: bool = True) -> list[Row]:
     """The paper's rows (when ``paper``), then one row per run on paper-v2/test."""
     rows = [_paper_row(table, d) for d in _paper_numbers()[table.key]] if paper else []
     for run in results.on(SPLIT):
-        rows.append(Row(f"ours: {run.model}", False,
+        rows.append(Row(run_label(run.model), False,
                         tuple(tuple(c.of(run) for c in col.cells) for col in table.columns)))
     return rows
 

@@ -115,3 +115,12 @@ def test_report_cli_writes_md_tex_and_replaces_the_block(tmp_path: Path) -> None
     assert "STALE-LINE" not in text and md.strip() in text and text.endswith("tail\n")
     with pytest.raises(InvalidArgument, match=r"has no block to replace"):
         replace_block("no markers", md)
+
+
+def test_rows_carry_the_registered_label() -> None:
+    from nsrmp_bench.results.paper_tables import run_label
+
+    assert run_label("dense-v1") == "ours: dense-v1 (not CLIPort)"
+    assert run_label("dense5x-v1") == "ours: dense5x-v1 (not CLIPort, 5x data)"
+    assert run_label("nsrm-v1") == "ours: nsrm-v1"
+    assert run_label("my-submission") == "ours: my-submission"
