@@ -31,6 +31,8 @@ _EXTRA_OF: dict[str, str] = {
     "dask": "dask",
     "distributed": "dask",
     "matplotlib": "plot",
+    "scipy": "detection",
+    "pycocotools": "detection",
 }
 
 

@@ -51,6 +51,10 @@ MODELS: dict[str, ModelEntry] = {
         ModelEntry("nsrm-v1", "neuro-symbolic reference model (gold boxes), learnt from "
                    "initial and final scenes", "nsrmp_bench.reference_model.nsrm",
                    "train_nsrm", "NSRMPredictor", "NSRMConfig"),
+        ModelEntry("detector-v1", "CenterNet-style object detector (RGB and height above the "
+                   "table), from scratch; writes detections, not predictions",
+                   "nsrmp_bench.reference_model.detector", "train_detector",
+                   "DetectorPredictor", "DetectorConfig"),
     )
 }
 

@@ -36,6 +36,8 @@ VERBS: dict[str, str] = {
     "replay": "carry out a predictions file with the simulated Panda; write the achieved boxes",
     "train": "train a learned reference model (nsrm) on a split's train part",
     "predict": "write a learned model's predictions file for a split part",
+    "detect": "write the detected initial objects of every episode of a split part",
+    "score-detections": "detection metrics (COCO AP, recall, failed scenes) of a detections file",
     "evaluate": "score models and predictions files on every official test part",
     "plot": "draw the generalisation figures (PNG and SVG) of a results folder",
     "report": "the paper's Table I and II (markdown and LaTeX) from a results folder",

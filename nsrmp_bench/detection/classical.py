@@ -1,0 +1,113 @@
+"""The classical depth-and-colour detector (``classical-v1``): no learning, no torch.
+
+The pipeline of ``reference/nsrm-original-model.md`` §6.4, on our renders:
+
+1. **Foreground**: pixels whose world point (depth back-projected through the camera) lies
+   over the table top, between ``MIN_HEIGHT`` and ``MAX_HEIGHT`` above it (the floor
+   lies below it, the robot's gripper above).
+2. **Colour**: each foreground pixel takes the nearest of the seven object colours by
+   hue, or white when unsaturated and bright; dark pixels (dice pips, edges in shade) take
+   none.
+3. **Components**: per colour, the mask's holes are filled (pips), a 3x3 opening drops
+   speckle, and its 8-connected components are the objects; components under
+   ``MIN_PIXELS`` are dropped.
+4. **Boxes**: each component's tight box, widened by ``PAD`` px on each side (the scored
+   boxes are amodal: the projection of the 3D box, slightly larger than the silhouette).
+
+It sees colour but not shape (``shapes`` are null). Known failures: same-colour touching
+or stacked objects merge into one detection; an object hidden behind another of the same
+colour merges with it. Needs scipy (the ``detection`` extra).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nsrmp_bench._optional import require
+from nsrmp_bench.detection.detections import Detections
+from nsrmp_bench.detection.height import world_points
+from nsrmp_bench.geometry.camera import Camera
+from nsrmp_bench.vocabulary import COLOUR_RGBA, COLOURS, TABLE_TOP_Z
+
+__all__ = ["CLASSICAL_ID", "classical_detect"]
+
+CLASSICAL_ID = "classical-v1"
+MIN_HEIGHT = 0.006  # metres above the table
+MAX_HEIGHT = 0.16
+TABLE_HALF = (0.75, 0.50)  # the table top's half sizes (x, y), centred on the origin
+MIN_PIXELS = 20
+PAD = 1.0
+_WHITE_SAT = 0.3
+_WHITE_VAL = 0.55
+_DARK_VAL = 0.18
+_SAT_MIN = 0.3
+
+
+def _hsv(rgb: NDArray[Any]) -> tuple[NDArray[np.float64], ...]:
+    x = np.asarray(rgb, dtype=np.float64) / 255.0
+    mx, mn = x.max(-1), x.min(-1)
+    d = mx - mn
+    sat = np.where(mx > 0, d / np.where(mx > 0, mx, 1), 0.0)
+    safe = np.where(d > 0, d, 1.0)
+    r, g, b = x[..., 0], x[..., 1], x[..., 2]
+    hue = np.where(mx == r, ((g - b) / safe) % 6, np.where(mx == g, (b - r) / safe + 2,
+                                                           (r - g) / safe + 4)) * 60.0
+    return hue, sat, mx
+
+
+_REF = np.array([COLOUR_RGBA[c][:3] for c in COLOURS]) * 255.0
+_REF_HUE, _, _ = _hsv(_REF)
+_CHROMATIC = [i for i, c in enumerate(COLOURS) if c != "white"]
+_WHITE = COLOURS.index("white")
+
+
+def _labels(rgb: NDArray[Any], fg: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """Per pixel the colour index, or -1 (background, dark, or unsaturated and dim)."""
+    hue, sat, val = _hsv(rgb)
+    dist = np.abs(hue[..., None] - _REF_HUE[_CHROMATIC])
+    dist = np.minimum(dist, 360.0 - dist)
+    chroma = np.asarray(_CHROMATIC)[dist.argmin(-1)]
+    out = np.full(fg.shape, -1, dtype=np.int64)
+    coloured = fg & (sat >= _SAT_MIN) & (val > _DARK_VAL)
+    white = fg & (sat < _WHITE_SAT) & (val >= _WHITE_VAL)
+    out[coloured] = chroma[coloured]
+    out[white & ~coloured] = _WHITE
+    return out
+
+
+def classical_detect(episode_id: str, rgb: NDArray[Any], depth: NDArray[Any],
+                     camera: Camera) -> Detections:
+    """The detections of one initial scene."""
+    nd = require("scipy.ndimage")
+    pts = world_points(depth, camera)
+    height = pts[..., 2] - TABLE_TOP_Z
+    fg = ((height >= MIN_HEIGHT) & (height <= MAX_HEIGHT)
+          & (np.abs(pts[..., 0]) <= TABLE_HALF[0]) & (np.abs(pts[..., 1]) <= TABLE_HALF[1]))
+    labels = _labels(rgb, fg)
+    h, w = fg.shape
+    boxes, scores, colours = [], [], []
+    for ci, colour in enumerate(COLOURS):
+        mask = nd.binary_fill_holes(labels == ci)
+        mask = nd.binary_opening(mask, structure=np.ones((3, 3), bool))
+        comp, n = nd.label(mask, structure=np.ones((3, 3), int))
+        if n == 0:
+            continue
+        for k, sl in enumerate(nd.find_objects(comp), start=1):
+            if sl is None:
+                continue
+            area = int((comp[sl] == k).sum())
+            if area < MIN_PIXELS:
+                continue
+            ys, xs = sl
+            boxes.append([max(0.0, xs.start - PAD), max(0.0, ys.start - PAD),
+                          min(float(w), xs.stop + PAD), min(float(h), ys.stop + PAD)])
+            # confidence grows with the component's size (a speckle is doubtful)
+            scores.append(float(min(1.0, area / 200.0)))
+            colours.append(colour)
+    order = np.argsort(-np.asarray(scores), kind="stable")
+    return Detections(episode_id, np.asarray(boxes, dtype=np.float64).reshape(-1, 4)[order],
+                      np.asarray(scores, dtype=np.float64)[order],
+                      (None,) * len(order), tuple(colours[i] for i in order))
