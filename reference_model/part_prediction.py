@@ -87,7 +87,25 @@ def predict_part(model_name: str, data: Path, out: Path,
         items, detected, detector = with_detected_boxes(items, boxes, ds.collection.split)
         model_id = f"{model_id}+{detector}"
         extra.update({"boxes": detector, "detections_file": boxes.name})
-        predictions = (dataclasses.replace(p, detections=detected[p.id])
-                       for p in model.predict(items, first.camera))
+        predictions = _on_detections(model, items, detected, first.camera)
     written = write_model_predictions(out, ds.collection.split, model_id, predictions, extra)
     return model_id, written, len(items)
+
+
+def _on_detections(model: Any, items: list[dict[str, Any]], detected: dict[str, Any],
+                   camera: Any) -> Iterator[Any]:
+    """The model's predictions with their detections; a scene with nothing detected gets
+    an empty prediction (no objects, no steps) without running the model."""
+    import numpy as np
+
+    from nsrmp_bench.scoring.submission import Prediction
+
+    seen = [it for it in items if len(detected[str(it["id"])])]
+    made = {p.id: p for p in model.predict(seen, camera)} if seen else {}
+    for it in items:
+        eid = str(it["id"])
+        if eid in made:
+            yield dataclasses.replace(made[eid], detections=detected[eid])
+        else:
+            yield Prediction(id=eid, boxes=np.zeros((0, 4)), program=(),
+                             detections=np.zeros((0, 4)))

@@ -68,7 +68,11 @@ def run(args: argparse.Namespace) -> int:
         raise InvalidArgument(msg)
     cfg = _config(entry, args.set)
     best = entry.train_fn()(args.data, args.out, seed=args.seed, config=cfg, quiet=args.quiet)
-    print(f"{entry.id}: best checkpoint {best}; predict with: nsrmp-bench predict "
-          f"{entry.id.rsplit('-v', 1)[0]} --data {args.data / 'test'} --out P.jsonl "
-          f"--checkpoint {best}")
+    if entry.id.startswith("detector-"):  # a detector writes detections, not predictions
+        use = (f"nsrmp-bench detect --data {args.data / 'test'} --out D.jsonl "
+               f"--checkpoint {best}")
+    else:
+        use = (f"nsrmp-bench predict {entry.id.rsplit('-v', 1)[0]} --data "
+               f"{args.data / 'test'} --out P.jsonl --checkpoint {best}")
+    print(f"{entry.id}: best checkpoint {best}; use it with: {use}")
     return 0

@@ -86,10 +86,24 @@ def classical_detect(episode_id: str, rgb: NDArray[Any], depth: NDArray[Any],
     height = pts[..., 2] - TABLE_TOP_Z
     fg = ((height >= MIN_HEIGHT) & (height <= MAX_HEIGHT)
           & (np.abs(pts[..., 0]) <= TABLE_HALF[0]) & (np.abs(pts[..., 1]) <= TABLE_HALF[1]))
-    labels = _labels(rgb, fg)
     h, w = fg.shape
-    boxes, scores, colours = [], [], []
+    boxes: list[list[float]] = []
+    scores: list[float] = []
+    colours: list[str] = []
+    ys, xs = np.nonzero(fg)
+    if len(ys) == 0:
+        return Detections(episode_id, np.zeros((0, 4)), np.zeros(0), (), ())
+    # work inside the foreground's bounding box with a 2 px background margin: the same
+    # components as on the whole image (the margin keeps holes and openings unchanged)
+    y0, x0 = max(0, int(ys.min()) - 2), max(0, int(xs.min()) - 2)
+    y1, x1 = min(h, int(ys.max()) + 3), min(w, int(xs.max()) + 3)
+    labels = np.full((y1 - y0 + 4, x1 - x0 + 4), -1, dtype=np.int64)
+    labels[2:-2, 2:-2] = _labels(rgb[y0:y1, x0:x1], fg[y0:y1, x0:x1])
+    ox, oy = x0 - 2, y0 - 2
+    present = set(np.unique(labels).tolist())
     for ci, colour in enumerate(COLOURS):
+        if ci not in present:
+            continue
         mask = nd.binary_fill_holes(labels == ci)
         mask = nd.binary_opening(mask, structure=np.ones((3, 3), bool))
         comp, n = nd.label(mask, structure=np.ones((3, 3), int))
@@ -101,9 +115,9 @@ def classical_detect(episode_id: str, rgb: NDArray[Any], depth: NDArray[Any],
             area = int((comp[sl] == k).sum())
             if area < MIN_PIXELS:
                 continue
-            ys, xs = sl
-            boxes.append([max(0.0, xs.start - PAD), max(0.0, ys.start - PAD),
-                          min(float(w), xs.stop + PAD), min(float(h), ys.stop + PAD)])
+            sy, sx = sl
+            boxes.append([max(0.0, sx.start + ox - PAD), max(0.0, sy.start + oy - PAD),
+                          min(float(w), sx.stop + ox + PAD), min(float(h), sy.stop + oy + PAD)])
             # confidence grows with the component's size (a speckle is doubtful)
             scores.append(float(min(1.0, area / 200.0)))
             colours.append(colour)

@@ -31,7 +31,6 @@ from nsrmp_bench.vocabulary import COLOURS, SHAPES
 __all__ = ["MODEL_ID", "DetectorConfig", "DetectorPredictor", "train_detector"]
 
 MODEL_ID = "detector-v1"
-_VAL_LIMIT = 200  # validation episodes scored after each epoch
 
 
 def _crop_batch(scenes: Scenes, rows: Tensor, cfg: DetectorConfig
@@ -96,7 +95,7 @@ def train_detector(data: Path, out: Path, *, seed: int = 0,
     t0 = time.perf_counter()
     train = read_scenes(data / "train", targets=True, limit=cfg.train_limit)
     if (data / "val" / "manifest.json").exists():
-        val = read_scenes(data / "val", targets=True, limit=_VAL_LIMIT)
+        val = read_scenes(data / "val", targets=True, limit=cfg.val_limit)
     else:
         msg = f"{data} has no val part ({data / 'val'}); the detector selects on it"
         raise InvalidArgument(msg)

@@ -21,6 +21,7 @@ class DetectorConfig:
     score_threshold: float = 0.3  # a peak at least this confident is a detection
     max_detections: int = 32
     train_limit: int = 1500  # use only the first N training episodes (0: all)
+    val_limit: int = 200  # select on the first N validation episodes
     threads: int = 2
 
     def to_dict(self) -> dict[str, Any]:
