@@ -3,8 +3,9 @@
 The pipeline of ``reference/nsrm-original-model.md`` §6.4, on our renders:
 
 1. **Foreground**: pixels whose world point (depth back-projected through the camera) lies
-   over the table top, between ``MIN_HEIGHT`` and ``MAX_HEIGHT`` above it (the floor
-   lies below it, the robot's gripper above).
+   over the workspace where objects are placed (``TARGET_AREA`` widened by ``MARGIN``:
+   the robot's base stands beyond it), between ``MIN_HEIGHT`` and ``MAX_HEIGHT`` above
+   the table top (the floor lies below it, the robot's gripper above).
 2. **Colour**: each foreground pixel takes the nearest of the seven object colours by
    hue, or white when unsaturated and bright; dark pixels (dice pips, edges in shade) take
    none.
@@ -30,14 +31,14 @@ from nsrmp_bench._optional import require
 from nsrmp_bench.detection.detections import Detections
 from nsrmp_bench.detection.height import world_points
 from nsrmp_bench.geometry.camera import Camera
-from nsrmp_bench.vocabulary import COLOUR_RGBA, COLOURS, TABLE_TOP_Z
+from nsrmp_bench.vocabulary import COLOUR_RGBA, COLOURS, TABLE_TOP_Z, TARGET_AREA
 
 __all__ = ["CLASSICAL_ID", "classical_detect"]
 
 CLASSICAL_ID = "classical-v1"
 MIN_HEIGHT = 0.006  # metres above the table
 MAX_HEIGHT = 0.16
-TABLE_HALF = (0.75, 0.50)  # the table top's half sizes (x, y), centred on the origin
+MARGIN = 0.08  # metres around the object-centre area (an object's half size and more)
 MIN_PIXELS = 20
 PAD = 1.0
 _WHITE_SAT = 0.3
@@ -84,8 +85,10 @@ def classical_detect(episode_id: str, rgb: NDArray[Any], depth: NDArray[Any],
     nd = require("scipy.ndimage")
     pts = world_points(depth, camera)
     height = pts[..., 2] - TABLE_TOP_Z
+    a = TARGET_AREA
     fg = ((height >= MIN_HEIGHT) & (height <= MAX_HEIGHT)
-          & (np.abs(pts[..., 0]) <= TABLE_HALF[0]) & (np.abs(pts[..., 1]) <= TABLE_HALF[1]))
+          & (pts[..., 0] >= a.x_min - MARGIN) & (pts[..., 0] <= a.x_max + MARGIN)
+          & (pts[..., 1] >= a.y_min - MARGIN) & (pts[..., 1] <= a.y_max + MARGIN))
     h, w = fg.shape
     boxes: list[list[float]] = []
     scores: list[float] = []

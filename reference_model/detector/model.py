@@ -50,9 +50,9 @@ class CenterNet(nn.Module):
             nn.Conv2d(width + w8, width, 1, bias=False), nn.BatchNorm2d(width),
             nn.ReLU(inplace=True), _conv(width, width))
         self.head = nn.Conv2d(width, _HEADS, 1)
-        with torch.no_grad():  # CenterNet's prior: few cells are centres
-            self.head.bias.zero_()
-            self.head.bias[0] = -2.19
+        prior = torch.zeros(_HEADS)
+        prior[0] = -2.19  # CenterNet's prior: few cells are centres
+        self.head.bias = nn.Parameter(prior)
 
     def forward(self, x: Tensor) -> Tensor:
         s4 = self.stem(x)
