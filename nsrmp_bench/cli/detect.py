@@ -6,9 +6,9 @@ Example::
     nsrmp-bench score-detections detections.jsonl --data data/paper-v2/test
     nsrmp-bench predict nsrm --boxes detections.jsonl --data data/paper-v2/test --out P.jsonl
 
-``--detector learned`` (the default, ``detector-v1``: its shipped checkpoint unless
-``--checkpoint`` is given) or ``classical`` (``classical-v1``, depth-and-colour
-segmentation, no torch). The file format is in ``nsrmp_bench/detection/detections.py``.
+``--detector classical`` (the default: ``classical-v1``, depth-and-colour segmentation,
+no torch; the better-measured one) or ``learned`` (``detector-v1``: its shipped
+checkpoint unless ``--checkpoint`` is given). The file format is in ``nsrmp_bench/detection/detections.py``.
 """
 
 from __future__ import annotations
