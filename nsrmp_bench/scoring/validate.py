@@ -416,7 +416,8 @@ class SubmissionParser:
         detections = obj.get("detections")
         n_det = None
         if detections is not None:  # the detected-objects protocol: boxes per detection
-            n_det = self._box_list(lineno, "detections", detections, 4, len(detections), deep)
+            size = len(detections) if isinstance(detections, list) else None
+            n_det = self._box_list(lineno, "detections", detections, 4, size, deep)
             if n_det < 0 or (deep and not self._numbers(lineno, "detections", detections)):
                 return
         if n_det is not None and isinstance(boxes, list) and len(boxes) != n_det:

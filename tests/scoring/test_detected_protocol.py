@@ -124,9 +124,11 @@ def test_bad_detected_lines_are_refused_with_their_line(gold_file: Path, tmp_pat
     det[0]["boxes"] = det[0]["boxes"][:-1]  # one box fewer than detections
     det[2]["detections"][0] = [10, 10, 5, 5]  # x2 < x1
     det[4]["detections"][0] = [10, 10, 900, 20]  # outside the image
+    det[6]["detections"] = 5  # not a list
     with pytest.raises(SubmissionError) as err:
         score(_write(tmp_path / "bad.jsonl", header, det), DATA, n_boot=0)
     text = str(err.value)
     assert "line 2" in text and "'detections' has" in text
     assert "line 4" in text and "detections[0]" in text
     assert "line 6" in text and "outside" in text
+    assert "line 8: 'detections' must be a list" in text
