@@ -8,7 +8,8 @@ Example::
 
 ``--detector classical`` (the default: ``classical-v1``, depth-and-colour segmentation,
 no torch; the better-measured one) or ``learned`` (``detector-v1``: its shipped
-checkpoint unless ``--checkpoint`` is given). The file format is in ``nsrmp_bench/detection/detections.py``.
+checkpoint unless ``--checkpoint`` is given). The file format is in
+``nsrmp_bench/detection/detections.py``.
 """
 
 from __future__ import annotations
