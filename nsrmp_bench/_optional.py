@@ -32,6 +32,8 @@ _EXTRA_OF: dict[str, str] = {
     "distributed": "dask",
     "matplotlib": "plot",
     "skimage": "reconstruction",
+    "scipy": "detection",
+    "pycocotools": "detection",
 }
 
 

@@ -2,23 +2,66 @@
 
 The ``predict`` command and ``evaluate`` both call :func:`predict_part`; the file it
 writes is an ordinary predictions file that the public scorer reads.
+
+With ``boxes`` (a detections file, see :mod:`nsrmp_bench.detection.detections`) any model
+that reads the initial boxes from its inputs reads the detected boxes in their place, and
+the file is written in the detected-objects protocol (each line carries its
+``detections``; boxes and program are per detection; the scorer matches them to the gold
+objects). Its model id is ``MODEL+DETECTOR`` (e.g. ``nsrm-v1+detector-v1``).
 """
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage.split_root import resolve_part
 
-__all__ = ["predict_part"]
+__all__ = ["predict_part", "with_detected_boxes"]
+
+
+def with_detected_boxes(items: list[dict[str, Any]], boxes: Path, split: str | None
+                        ) -> tuple[list[dict[str, Any]], dict[str, Any], str]:
+    """``items`` with their initial boxes replaced by the detections of file ``boxes``.
+
+    Returns the items, the detected boxes by episode id and the detector id. An episode
+    without a line in the file, or a file for another split, is an error.
+    """
+    import numpy as np
+    import torch
+
+    from nsrmp_bench.detection.detections import read_detections
+    from nsrmp_bench.scoring.align import split_matches
+
+    found = read_detections(boxes)
+    declared = str(found.header.get("split", ""))
+    if split and declared and not split_matches(declared, split):
+        msg = (f"--boxes {boxes} holds detections of split {declared!r}, but the data is "
+               f"{split!r}; detect on this part first (nsrmp-bench detect --data ...)")
+        raise InvalidArgument(msg)
+    out, by_id = [], {}
+    for item in items:
+        d = found.by_id.get(str(item["id"]))
+        if d is None:
+            msg = (f"--boxes {boxes} has no line for episode {item['id']!r}; detect on the "
+                   "whole part (nsrmp-bench detect --data ... --out ...)")
+            raise InvalidArgument(msg)
+        det = np.asarray(d.boxes, dtype=np.float32).reshape(-1, 4)
+        by_id[d.id] = d.boxes
+        out.append({**item, "inputs": {**item["inputs"], "boxes": torch.from_numpy(det)}})
+    return out, by_id, found.detector
 
 
 def predict_part(model_name: str, data: Path, out: Path,
-                 checkpoint: Path | None = None) -> tuple[str, Path, int]:
+                 checkpoint: Path | None = None, boxes: Path | None = None
+                 ) -> tuple[str, Path, int]:
     """Predict every episode of the part ``data`` into ``out``.
 
-    Returns the model id, the file written and the number of episodes.
+    Returns the model id (``MODEL+DETECTOR`` with ``boxes``), the file written and the
+    number of episodes.
     """
     from nsrmp_bench.dataset import EpisodeDataset
     from nsrmp_bench.reference_model.predictions import write_model_predictions
@@ -39,7 +82,34 @@ def predict_part(model_name: str, data: Path, out: Path,
         msg = (f"{data} holds symbolic episodes without rendering; the learned models "
                "read the initial image and boxes: generate the split with rendering")
         raise InvalidArgument(msg)
-    written = write_model_predictions(out, ds.collection.split, model.model_id,
-                                      model.predict(items, first.camera),
-                                      {"checkpoint": model.checkpoint.name})
-    return str(model.model_id), written, len(items)
+    model_id = str(model.model_id)
+    extra: dict[str, object] = {"checkpoint": model.checkpoint.name}
+    predictions: Iterator[Any]
+    if boxes is None:
+        predictions = model.predict(items, first.camera)
+    else:
+        items, detected, detector = with_detected_boxes(items, boxes, ds.collection.split)
+        model_id = f"{model_id}+{detector}"
+        extra.update({"boxes": detector, "detections_file": boxes.name})
+        predictions = _on_detections(model, items, detected, first.camera)
+    written = write_model_predictions(out, ds.collection.split, model_id, predictions, extra)
+    return model_id, written, len(items)
+
+
+def _on_detections(model: Any, items: list[dict[str, Any]], detected: dict[str, Any],
+                   camera: Any) -> Iterator[Any]:
+    """The model's predictions with their detections; a scene with nothing detected gets
+    an empty prediction (no objects, no steps) without running the model."""
+    import numpy as np
+
+    from nsrmp_bench.scoring.submission import Prediction
+
+    seen = [it for it in items if len(detected[str(it["id"])])]
+    made = {p.id: p for p in model.predict(seen, camera)} if seen else {}
+    for it in items:
+        eid = str(it["id"])
+        if eid in made:
+            yield dataclasses.replace(made[eid], detections=detected[eid])
+        else:
+            yield Prediction(id=eid, boxes=np.zeros((0, 4)), program=(),
+                             detections=np.zeros((0, 4)))

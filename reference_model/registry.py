@@ -64,6 +64,10 @@ MODELS: dict[str, ModelEntry] = {
                    "(dense5x-v2/train, selected on paper-v2/val)",
                    "nsrmp_bench.reference_model.dense", "train_dense5x", "Dense5xPredictor",
                    "Dense5xConfig", "not CLIPort, 5x data"),
+        ModelEntry("detector-v1", "CenterNet-style object detector (RGB and height above the "
+                   "table), from scratch; writes detections, not predictions",
+                   "nsrmp_bench.reference_model.detector", "train_detector",
+                   "DetectorPredictor", "DetectorConfig"),
     )
 }
 

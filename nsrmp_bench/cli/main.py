@@ -37,6 +37,8 @@ VERBS: dict[str, str] = {
     "train": "train a learned reference model (nsrm) on a split's train part",
     "predict": "write a learned model's predictions file for a split part",
     "reconstruct": "images of a predictions file's sub-goal states, with SSIM against gold",
+    "detect": "write the detected initial objects of every episode of a split part",
+    "score-detections": "detection metrics (COCO AP, recall, failed scenes) of a detections file",
     "evaluate": "score models and predictions files on every official test part",
     "plot": "draw the generalisation figures (PNG and SVG) of a results folder",
     "report": "the paper's Table I and II (markdown and LaTeX) from a results folder",

@@ -4,11 +4,15 @@ Example::
 
     nsrmp-bench predict nsrm --data data/paper/test --out nsrm.jsonl
     nsrmp-bench score nsrm.jsonl --data data/paper/test
+    nsrmp-bench predict nsrm --boxes detections.jsonl --data data/paper/test --out P.jsonl
 
 Without ``--checkpoint`` the checkpoint shipped inside the package is used. The output is
 an ordinary predictions file (grounded program, boxes after each step, final boxes, pick
 and place points, 3D positions) that ``check-submission``, ``score``, ``compare``,
-``replay`` and ``leaderboard`` take like any other.
+``replay`` and ``leaderboard`` take like any other. With ``--boxes`` (a file from
+``nsrmp-bench detect``) the model reads the detected initial boxes instead of the gold ones
+and writes the detected-objects protocol (``SCORING.md``); its model id is
+``MODEL+DETECTOR``.
 """
 
 from __future__ import annotations
@@ -28,6 +32,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, type=Path, help="predictions file to write")
     parser.add_argument("--checkpoint", type=Path, default=None,
                         help="checkpoint (.pt) to use instead of the shipped one")
+    parser.add_argument("--boxes", type=Path, default=None,
+                        help="detections file (from `nsrmp-bench detect`) whose boxes the "
+                        "model reads instead of the gold initial boxes")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
 
@@ -36,7 +43,8 @@ def run(args: argparse.Namespace) -> int:
     from nsrmp_bench.reference_model.part_prediction import predict_part
 
     t0 = time.perf_counter()
-    model_id, out, count = predict_part(args.model, args.data, args.out, args.checkpoint)
+    model_id, out, count = predict_part(args.model, args.data, args.out, args.checkpoint,
+                                             args.boxes)
     if not args.quiet:
         print(f"{model_id}: wrote {out} ({count} episodes in "
               f"{time.perf_counter() - t0:.1f} s)")

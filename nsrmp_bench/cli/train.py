@@ -69,11 +69,14 @@ def run(args: argparse.Namespace) -> int:
     cfg = _config(entry, args.set)
     best = entry.train_fn()(args.data, args.out, seed=args.seed, config=cfg, quiet=args.quiet)
     name = entry.id.rsplit("-v", 1)[0]
-    if hasattr(entry.predictor_cls(), "predict"):
-        use = (f"predict with: nsrmp-bench predict {name} --data {args.data / 'test'} "
-               f"--out P.jsonl --checkpoint {best}")
+    if entry.id.startswith("detector-"):  # a detector writes detections, not predictions
+        use = (f"nsrmp-bench detect --data {args.data / 'test'} --out D.jsonl "
+               f"--checkpoint {best}")
+    elif hasattr(entry.predictor_cls(), "predict"):
+        use = (f"nsrmp-bench predict {name} --data {args.data / 'test'} --out P.jsonl "
+               f"--checkpoint {best}")
     else:  # an image model (reconstruction): it runs over a predictions file
-        use = (f"run it with: nsrmp-bench reconstruct P.jsonl --data {args.data / 'test'} "
-               f"--out DIR --checkpoint {best}")
-    print(f"{entry.id}: best checkpoint {best}; {use}")
+        use = (f"nsrmp-bench reconstruct P.jsonl --data {args.data / 'test'} --out DIR "
+               f"--checkpoint {best}")
+    print(f"{entry.id}: best checkpoint {best}; use it with: {use}")
     return 0

@@ -13,12 +13,15 @@ the table, flagged, and score zero (:func:`lay_out`).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from nsrmp_bench.detection.matching import MATCH_IOU
 from nsrmp_bench.errors import InvalidArgument, SubmissionError
+from nsrmp_bench.scoring.detected import resolve_detections
 from nsrmp_bench.scoring.gold import GoldTable
 from nsrmp_bench.scoring.ragged import gather_rows, offsets_from_lengths, row_ids
 from nsrmp_bench.scoring.submission import Submission, SubmissionHeader
@@ -70,6 +73,7 @@ class PredictionTable:
     positions: F64  # (O, 3), NaN where absent
     counts: dict[str, int] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
+    object_matched: B | None = None  # (O,) False: a gold object no detection matched
 
     @property
     def n_program_steps(self) -> I64:
@@ -298,6 +302,10 @@ def lay_out(m: Matching, checked: CheckedRecords, warnings: list[str]) -> Predic
     src, _ = gather_rows(sub.obj_offsets, recs)
     dst, _ = gather_rows(gold.obj_offsets, g_of)
     pred_boxes[dst] = checked.boxes[src]
+    object_matched = None
+    if sub.object_matched is not None:
+        object_matched = np.ones(len(gold.final_boxes), dtype=bool)
+        object_matched[dst] = sub.object_matched[src]
 
     pred_pos = np.full_like(gold.final_positions, np.nan)
     pred_pos[dst] = sub.positions[src]
@@ -363,6 +371,7 @@ def lay_out(m: Matching, checked: CheckedRecords, warnings: list[str]) -> Predic
         positions=pred_pos,
         counts=counts,
         warnings=tuple(warnings),
+        object_matched=object_matched,
     )
 
 
@@ -390,6 +399,24 @@ def align(
     check_split(sub, gold, problems, warnings)
     m = Matching.of(sub, gold)
     unknown = check_ids(m, unknown_ids, problems, warnings)
+    detected: dict[str, int] = {}
+    if sub.has_detections is not None and sub.detections is not None:
+        # bounds are checked in the line's own (detection) order, before resolution
+        det_ok = m.known & sub.has_detections
+        dets, d_boxes, d_step = sub.detections.copy(), sub.boxes.copy(), sub.step_boxes.copy()
+        clipped_det = sum((
+            check_box_bounds(m, det_ok, "detections", dets, sub.obj_offsets, None,
+                             clip_tolerance, problems),
+            check_box_bounds(m, det_ok, "boxes", d_boxes, sub.obj_offsets, None,
+                             clip_tolerance, problems),
+            check_box_bounds(m, det_ok, "step_boxes", d_step, sub.stepbox_offsets,
+                             sub.n_objects, clip_tolerance, problems)))
+        sub = dataclasses.replace(sub, detections=dets, boxes=d_boxes, step_boxes=d_step)
+        sub, detected = resolve_detections(sub, gold, m.known, m.gold_row)
+        if clipped_det:
+            warnings.append(f"{clipped_det} box(es) of lines with detections lay up to "
+                            f"{clip_tolerance:g} px outside the image and were clipped onto it")
+        m = Matching.of(sub, gold)
     ok = check_object_counts(m, problems)
     other = other_step_count(m, ok)
     boxes, step_boxes = sub.boxes.copy(), sub.step_boxes.copy()
@@ -410,4 +437,12 @@ def align(
         )
     checked = CheckedRecords(ok, sub.has_step_boxes & ~other, other, boxes, step_boxes, pick, place,
                        len(unknown), clipped)
-    return lay_out(m, checked, warnings)
+    table = lay_out(m, checked, warnings)
+    if detected:
+        table.counts.update(detected)
+        table = dataclasses.replace(table, warnings=(*table.warnings, (
+            f"{detected['detected_lines']} line(s) predict on their own detections: "
+            f"{detected['detected_objects_unmatched']} gold object(s) no detection matched "
+            f"(IoU >= {MATCH_IOU:g}) score IoU 0; {detected['detections_unmatched']} "
+            "detection(s) matched no gold object")))
+    return table

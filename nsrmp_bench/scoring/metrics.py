@@ -139,6 +139,8 @@ def instance_scores(gold: GoldTable, pred: PredictionTable) -> tuple[pd.DataFram
     obj_present = present[obj_inst]
 
     # Final boxes.
+    if pred.object_matched is not None:  # detected objects: an unmatched one scores 0
+        obj_present = obj_present & pred.object_matched
     iou_obj = np.where(obj_present, box_iou(pred.boxes, gold.final_boxes), 0.0)
     iou = _safe_div(_per_instance(obj_inst, iou_obj, n), gold.n_objects)
     iou_m = _safe_div(_per_instance(obj_inst, iou_obj * gold.moved, n), gold.n_moved)

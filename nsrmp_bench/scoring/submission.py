@@ -116,6 +116,7 @@ class Prediction:
     pick: tuple[float, float] | None = None
     place: tuple[float, float] | None = None
     positions: NDArray[Any] | None = None  # (N, 3) metres
+    detections: NDArray[Any] | None = None  # (K, 4): boxes etc. are per detection
 
     def to_record(self) -> dict[str, Any]:
         """The JSON-able line (pixels and metres rounded to 6 decimals).
@@ -134,6 +135,7 @@ class Prediction:
             ("pick", self.pick, _BOX_DECIMALS),
             ("place", self.place, _BOX_DECIMALS),
             ("positions", self.positions, _POS_DECIMALS),
+            ("detections", self.detections, _BOX_DECIMALS),
         ):
             if value is not None:
                 rec[name] = _round_list(value, decimals, f"{w} {name}")
@@ -169,6 +171,9 @@ class Submission:
     has_positions: B  # (R,)
     positions: F64  # (O, 3), NaN where absent
     line_label: str = "line"
+    has_detections: B | None = None  # (R,) the line is in the detected-objects protocol
+    detections: F64 | None = None  # (O, 4) detected initial boxes, zeros where absent
+    object_matched: B | None = None  # (O,) after resolution: the gold object was detected
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -224,7 +229,8 @@ def write_submission(
     return out
 
 
-PARQUET_COLUMNS = ("id", "boxes", "program", "step_boxes", "pick", "place", "positions")
+PARQUET_COLUMNS = ("id", "boxes", "program", "step_boxes", "pick", "place", "positions",
+                   "detections")
 """The columns of a Parquet predictions file (one row per instance)."""
 
 
@@ -250,6 +256,7 @@ def _parquet_table(pa: Any, header: SubmissionHeader, records: list[dict[str, An
             ("pick", pa.list_(pa.float64())),
             ("place", pa.list_(pa.float64())),
             ("positions", pa.list_(pa.list_(pa.float64()))),
+            ("detections", pa.list_(pa.list_(pa.float64()))),
         ],
         metadata={PARQUET_HEADER_KEY: json.dumps(header.to_dict())},
     )

@@ -44,7 +44,8 @@ __all__ = [
 MAX_SHOWN = 20
 """Most problems listed in one error message (all are counted)."""
 
-RECORD_FIELDS = ("id", "boxes", "step_boxes", "program", "pick", "place", "positions")
+RECORD_FIELDS = ("id", "boxes", "step_boxes", "program", "pick", "place", "positions",
+                 "detections")
 """The fields a prediction line may have; ``id`` and ``boxes`` are required."""
 
 _FIELD_SET = frozenset(RECORD_FIELDS)
@@ -160,6 +161,8 @@ class SubmissionParser:
         self._place: list[Any] = []
         self._has_pos: list[bool] = []
         self._positions: list[Any] = []
+        self._has_det: list[bool] = []
+        self._detections: list[Any] = []
         self._raw: list[dict[str, Any]] = []
 
     def where(self, lineno: int) -> str:
@@ -410,7 +413,21 @@ class SubmissionParser:
                 "each object (leave the instance out to score it as missing)",
             )
             return
-        n = self._box_list(lineno, "boxes", boxes, 4, None, deep)
+        detections = obj.get("detections")
+        n_det = None
+        if detections is not None:  # the detected-objects protocol: boxes per detection
+            size = len(detections) if isinstance(detections, list) else None
+            n_det = self._box_list(lineno, "detections", detections, 4, size, deep)
+            if n_det < 0 or (deep and not self._numbers(lineno, "detections", detections)):
+                return
+        if n_det is not None and isinstance(boxes, list) and len(boxes) != n_det:
+            self.problem(
+                lineno,
+                f"'boxes' has {len(boxes)} entries but 'detections' has {n_det}; with "
+                "detections, give one final box per detection, in the order of 'detections'",
+            )
+            return
+        n = self._box_list(lineno, "boxes", boxes, 4, n_det, deep)
         if n < 0 or (deep and not self._numbers(lineno, "boxes", boxes)):
             return
         step_boxes = obj.get("step_boxes")
@@ -468,6 +485,9 @@ class SubmissionParser:
         self._has_pos.append(positions is not None)
         if positions is not None:
             self._positions.extend(positions)
+        self._has_det.append(detections is not None)
+        if detections is not None:
+            self._detections.extend(detections)
 
     # -- the whole file -------------------------------------------------------------------
     def _array(self, rows: list[Any], width: int, name: str) -> NDArray[np.float64]:
@@ -572,6 +592,15 @@ class SubmissionParser:
         self._check_finite_ordered(step_boxes, sb_off, "step_boxes", True, per_state=nobj)
         for arr in (boxes, step_boxes):  # reported above; keep later checks from repeating it
             arr[~np.isfinite(arr).all(axis=1)] = 0.0
+        has_det = np.array(self._has_det, dtype=bool)
+        det_rows = self._array(self._detections, 4, "detections")
+        detections = np.zeros((int(obj_off[-1]), 4))
+        if len(det_rows):
+            detections[np.repeat(has_det, nobj)] = det_rows
+            det_off = offsets_from_lengths(np.where(has_det, nobj, 0))
+            self._check_finite_ordered(det_rows, det_off, "detections", True)
+            det_rows[~np.isfinite(det_rows).all(axis=1)] = 0.0
+            detections[np.repeat(has_det, nobj)] = det_rows
         positions = np.full((int(obj_off[-1]), 3), np.nan)
         if len(pos_rows):
             pos_obj = np.repeat(has_pos, nobj)
@@ -613,6 +642,8 @@ class SubmissionParser:
             has_positions=has_pos,
             positions=positions,
             line_label=self.label,
+            has_detections=has_det if has_det.any() else None,
+            detections=detections if has_det.any() else None,
         )
 
 
