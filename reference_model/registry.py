@@ -51,6 +51,10 @@ MODELS: dict[str, ModelEntry] = {
         ModelEntry("nsrm-v1", "neuro-symbolic reference model (gold boxes), learnt from "
                    "initial and final scenes", "nsrmp_bench.reference_model.nsrm",
                    "train_nsrm", "NSRMPredictor", "NSRMConfig"),
+        ModelEntry("nmn-v1", "NMN+ attention baseline (gold boxes, box coordinates in the "
+                   "object features), learnt from initial and final scenes",
+                   "nsrmp_bench.reference_model.nmn", "train_nmn", "NMNPredictor",
+                   "NMNConfig"),
     )
 }
 

@@ -28,6 +28,7 @@ from nsrmp_bench.results.summary import Results, Run
 __all__ = [
     "BLOCK_BEGIN",
     "BLOCK_END",
+    "PAPER_NAMES",
     "TABLES",
     "Column",
     "PaperTable",
@@ -35,6 +36,7 @@ __all__ = [
     "render_latex",
     "render_markdown",
     "replace_block",
+    "row_label",
     "table_rows",
     "write_report",
 ]
@@ -145,11 +147,22 @@ def _paper_row(table: PaperTable, data: dict[str, Any]) -> Row:
     return Row(f"paper: {data['model']}", True, tuple(values))
 
 
+PAPER_NAMES = {"nsrm": "NSRM", "nmn": "NMN+"}
+"""The paper's name of a model of ours (by the name part of its id), for its row label:
+the paper's "Ours" is NSRM; its NMN+ baseline is ``nmn``."""
+
+
+def row_label(model: str) -> str:
+    """Our row's label: ``ours: NMN+ (nmn-v1)`` for a model the paper has, else the id."""
+    name = PAPER_NAMES.get(model.rsplit("-v", 1)[0])
+    return f"ours: {name} ({model})" if name else f"ours: {model}"
+
+
 def table_rows(table: PaperTable, results: Results, *, paper: bool = True) -> list[Row]:
     """The paper's rows (when ``paper``), then one row per run on paper-v2/test."""
     rows = [_paper_row(table, d) for d in _paper_numbers()[table.key]] if paper else []
     for run in results.on(SPLIT):
-        rows.append(Row(f"ours: {run.model}", False,
+        rows.append(Row(row_label(run.model), False,
                         tuple(tuple(c.of(run) for c in col.cells) for col in table.columns)))
     return rows
 

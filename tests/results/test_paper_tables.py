@@ -22,6 +22,7 @@ from nsrmp_bench.results.paper_tables import (
     render_latex,
     render_markdown,
     replace_block,
+    row_label,
     table_rows,
 )
 from nsrmp_bench.results.summary import Results
@@ -54,7 +55,7 @@ def test_table_i_paper_rows_then_ours_from_the_summary() -> None:
     ours = results.on("paper-v2/test")
     assert ours
     for run in ours:
-        cells = rows[f"ours: {run.model}"]
+        cells = rows[row_label(run.model)]
         assert cells[1] == f"{run.metric('iou_m').value:.3f}"
         assert cells[2] == "/".join(f"{run.metric(m).value:.3f}" for m in
                                     ("action_all_steps", "subject_all_steps",
@@ -68,7 +69,7 @@ def test_table_ii_is_identification_and_placement_by_relational() -> None:
     results = Results.read(SITE)
     run = results.run("nsrm-v1", "paper-v2/test")
     assert run is not None
-    row = next(r for r in table_rows(TABLE_II, results) if r.label == "ours: nsrm-v1")
+    row = next(r for r in table_rows(TABLE_II, results) if r.label == "ours: NSRM (nsrm-v1)")
     assert row.values[0] == (run.metric("identification").value,)
     assert row.values[5] == (run.group("relational", "True", "placement").value,)
     md = _markdown_rows(render_markdown(results, paper=False), "Table II")
