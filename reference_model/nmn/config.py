@@ -28,8 +28,8 @@ class NMNConfig:
     heads: int = 2  # attention heads per role, multiplied (the original's colour and shape)
     # curriculum: epochs per stage (see reference_model/nmn/curriculum.py)
     epochs_single: int = 16
-    epochs_splitter: int = 3
-    epochs_multistep: int = 5
+    epochs_splitter: int = 2
+    epochs_multistep: int = 3
     splitter_examples: int = 1000  # the splitter stage's subset of the training episodes
     batch_size: int = 32
     lr: float = 2e-3

@@ -3,10 +3,12 @@
 - :class:`RoleAttention`: for one role of a step (the subject, or the reference it is
   placed on or beside), ``heads`` attention heads over the objects. Each head pools the
   sentence's word states with its own word attention, maps the pooled sentence and that
-  summary to a query, and scores every object by an MLP of ``[query, object]``; the heads'
-  distributions are multiplied and renormalised (the original's "colour" and "shape"
-  heads). Objects are scored independently: the only interaction between them is the
-  softmax, as in the original.
+  summary to a query, maps every object to a key, and scores the object by an MLP of
+  ``query * key``; the heads' distributions are multiplied and renormalised (the
+  original's "colour" and "shape" heads). Objects are scored independently: the only
+  interaction between them is the softmax, as in the original. (The original scores an
+  MLP of ``[query, object]``; measured here from scratch, subject choice stayed at chance
+  for 8 epochs of 320 episodes with it and began to learn with the product.)
 - :class:`ActionDecoder`: the pooled sentence to a distribution over the 3 actions.
 
 An object is its visual feature, its current box geometry ``[cx, cy, w, h, d]`` (which
@@ -49,21 +51,23 @@ class RoleAttention(nn.Module):
             nn.Sequential(nn.Linear(2 * word_dim, a), nn.ReLU(), nn.Linear(a, a))
             for _ in range(cfg.heads)
         )
+        self.key = nn.ModuleList(
+            nn.Sequential(nn.Linear(object_dim, a), nn.ReLU(), nn.Linear(a, a))
+            for _ in range(cfg.heads)
+        )
         self.score = nn.ModuleList(
-            nn.Sequential(nn.Linear(a + object_dim, a), nn.ReLU(), nn.Linear(a, a // 2),
-                          nn.ReLU(), nn.Linear(a // 2, 1))
+            nn.Sequential(nn.Linear(a, a // 2), nn.ReLU(), nn.Linear(a // 2, 1))
             for _ in range(cfg.heads)
         )
 
     def forward(self, h: Tensor, valid: Tensor, objects: Tensor, mask: Tensor) -> Tensor:
         mean = pooled(h, valid)
         w = torch.softmax(self.words(h).masked_fill(~valid[..., None], _NEG), dim=1)
-        n = objects.shape[1]
         total = objects.new_zeros(objects.shape[:2])
         for k in range(self.heads):
             summary = (w[..., k : k + 1] * h).sum(1)
             q = self.query[k](torch.cat([mean, summary], -1))
-            x = torch.cat([q[:, None, :].expand(-1, n, -1), objects], -1)
+            x = q[:, None, :] * self.key[k](objects)
             s = self.score[k](x).squeeze(-1).masked_fill(~mask, _NEG)
             total = total + torch.log_softmax(s, -1)
         out: Tensor = torch.log_softmax(total.masked_fill(~mask, _NEG), -1)
