@@ -8,9 +8,10 @@ Usage::
 For each test part found under the root (``smoke-v2/test``, ``paper-v2/test``,
 ``objects-v2/test``, ``steps-v2/test``, ``language-v2/test``, ``attributes-v2/test``) it
 runs ``nsrmp-bench predict`` (timed: wall seconds per 1,000 episodes), scores the file
-with the public scorer and prints the paper's table (IoU / IoU-M overall, single/double step, simple/relational; program accuracy;
-identification/placement on single-step), IoU-M by object count, step count and held-out
-kind, with 95% intervals. ``--run`` adds the training wall time from the run's model card.
+with the public scorer and prints the paper's table (IoU / IoU-M overall, single/double
+step, simple/relational; program accuracy; identification/placement on single-step),
+IoU-M by object count, step count and held-out kind, with 95% intervals. ``--run`` adds
+the training wall time from the run's model card.
 A part can use its own checkpoint with ``--part-checkpoint attributes=PATH``. The
 predictions files it writes (``OUT/<split>-test.jsonl``) are the ones a leaderboard entry
 cites. The two models side by side (the paper's Table I layout, and the figures by
