@@ -21,7 +21,7 @@ from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.reference_model.features import CROP, GEOMETRY, object_inputs
 from nsrmp_bench.reference_model.tokens import PAD, Vocabulary
 
-__all__ = ["Encoded", "encode_inputs", "encode_part", "encode_targets"]
+__all__ = ["Encoded", "encode_inputs", "encode_part", "encode_targets", "encode_train_val"]
 
 
 @dataclass
@@ -135,3 +135,24 @@ def encode_part(path: str | Path, vocab: Vocabulary | None = None, *, targets: b
         cats = ds.collection.index.set_index("id").to_dict("index")
         encode_targets(enc, items, cast(Mapping[str, Mapping[str, Any]], cats))
     return enc, vocab
+
+
+def encode_train_val(data: Path) -> tuple[Encoded, Encoded, Vocabulary]:
+    """A split root's training and selection episodes, with targets, and the vocabulary
+    built from the training part.
+
+    A split without a val part (attributes-v2) selects on the last tenth of its train part,
+    which is then not trained on.
+    """
+    if not (data / "train" / "manifest.json").exists():
+        msg = (f"{data} has no finished part 'train' ({data / 'train'}); pass a split root "
+               "holding train/ (and val/), e.g. generate one with `nsrmp-bench generate "
+               "--split paper-v2 --out data/paper-v2`")
+        raise InvalidArgument(msg)
+    train, vocab = encode_part(data / "train", targets=True)
+    if (data / "val" / "manifest.json").exists():
+        val, _ = encode_part(data / "val", vocab, targets=True)
+    else:
+        cut = len(train) - max(1, len(train) // 10)
+        train, val = train.select(range(cut)), train.select(range(cut, len(train)))
+    return train, val, vocab

@@ -68,6 +68,10 @@ MODELS: dict[str, ModelEntry] = {
                    "table), from scratch; writes detections, not predictions",
                    "nsrmp_bench.reference_model.detector", "train_detector",
                    "DetectorPredictor", "DetectorConfig"),
+        ModelEntry("nmn-v1", "NMN+ attention baseline (gold boxes, box coordinates in the "
+                   "object features), learnt from initial and final scenes",
+                   "nsrmp_bench.reference_model.nmn", "train_nmn", "NMNPredictor",
+                   "NMNConfig"),
     )
 }
 

@@ -23,7 +23,7 @@ from pathlib import Path
 from nsrmp_bench.engine import InlineEngine
 from nsrmp_bench.results.evaluate import evaluate
 from nsrmp_bench.results.model_cards import model_card
-from nsrmp_bench.results.paper_tables import TABLE_II, render_markdown, run_label
+from nsrmp_bench.results.paper_tables import TABLE_II, render_markdown, row_label
 from nsrmp_bench.results.summary import Estimate
 
 PAPER = {"CLIPort": (0.46, 0.39), "CLIPort (5x)": (0.76, 0.61)}
@@ -54,7 +54,7 @@ def main() -> None:
         print(f"| paper: {name} | {pid:.2f} | {ppl:.2f} | |")
     for run in results.on("paper-v2/test"):
         ident, place = run.metric("identification"), run.metric("placement")
-        print(f"| {run_label(run.model)} | {_ci(ident)} | {_ci(place)} | {ident.n} |")
+        print(f"| {row_label(run.model)} | {_ci(ident)} | {_ci(place)} | {ident.n} |")
     print("\n| model | part | IoU | IoU-M [95% CI] |\n|---|---|---|---|")
     for run in results.runs:
         print(f"| {run.model} | {run.split} | {run.metric('iou').value:.3f} | "
@@ -62,7 +62,7 @@ def main() -> None:
     print("\n| model | training time | parameters | training data |\n|---|---|---|---|")
     for model in sorted({r.model for r in results.runs}):
         facts = model_card(model).facts
-        print(f"| {run_label(model)} | {facts['training_time']} | {facts['parameters']} | "
+        print(f"| {row_label(model)} | {facts['training_time']} | {facts['parameters']} | "
               f"{facts['training_data']} |")
 
 

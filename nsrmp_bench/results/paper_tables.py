@@ -28,6 +28,7 @@ from nsrmp_bench.results.summary import Results, Run
 __all__ = [
     "BLOCK_BEGIN",
     "BLOCK_END",
+    "PAPER_NAMES",
     "TABLES",
     "Column",
     "PaperTable",
@@ -35,7 +36,7 @@ __all__ = [
     "render_latex",
     "render_markdown",
     "replace_block",
-    "run_label",
+    "row_label",
     "table_rows",
     "write_report",
 ]
@@ -146,10 +147,19 @@ def _paper_row(table: PaperTable, data: dict[str, Any]) -> Row:
     return Row(f"paper: {data['model']}", True, tuple(values))
 
 
-def run_label(model: str) -> str:
-    """``ours: MODEL``, with the registered model's label (``dense-v1 (not CLIPort)``)."""
+PAPER_NAMES = {"nsrm": "NSRM", "nmn": "NMN+"}
+"""The paper's name of a model of ours (by the name part of its id), for its row label:
+the paper's "Ours" is NSRM; its NMN+ baseline is ``nmn``."""
+
+
+def row_label(model: str) -> str:
+    """Our row's label: ``ours: NMN+ (nmn-v1)`` for a model the paper has; else the id with
+    the registered model's label (``ours: dense-v1 (not CLIPort)``); else the id."""
     from nsrmp_bench.reference_model.registry import MODELS
 
+    name = PAPER_NAMES.get(model.rsplit("-v", 1)[0])
+    if name:
+        return f"ours: {name} ({model})"
     entry = MODELS.get(model)
     return f"ours: {model} ({entry.label})" if entry is not None and entry.label else (
         f"ours: {model}")
@@ -159,7 +169,7 @@ def table_rows(table: PaperTable, results: Results, *, paper: bool = True) -> li
     """The paper's rows (when ``paper``), then one row per run on paper-v2/test."""
     rows = [_paper_row(table, d) for d in _paper_numbers()[table.key]] if paper else []
     for run in results.on(SPLIT):
-        rows.append(Row(run_label(run.model), False,
+        rows.append(Row(row_label(run.model), False,
                         tuple(tuple(c.of(run) for c in col.cells) for col in table.columns)))
     return rows
 

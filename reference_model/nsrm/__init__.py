@@ -14,16 +14,18 @@ from typing import Any
 
 import torch
 
-from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.reference_model.checkpoints import load_checkpoint, save_checkpoint, write_card
-from nsrmp_bench.reference_model.encoded import Encoded, encode_inputs, encode_part
+from nsrmp_bench.reference_model.encoded import Encoded, encode_inputs, encode_train_val
 from nsrmp_bench.reference_model.nsrm.config import NSRMConfig
 from nsrmp_bench.reference_model.nsrm.curriculum import build_stages
-from nsrmp_bench.reference_model.nsrm.inference import Inferred, infer
-from nsrmp_bench.reference_model.nsrm.loss import iou, world_to_boxes
+from nsrmp_bench.reference_model.nsrm.inference import (
+    Inferred,
+    infer,
+    inferred_iou_m,
+    inferred_predictions,
+)
 from nsrmp_bench.reference_model.nsrm.model import NSRM
-from nsrmp_bench.reference_model.predictions import model_predictions
 from nsrmp_bench.reference_model.tokens import Vocabulary
 from nsrmp_bench.reference_model.training import train_stages
 from nsrmp_bench.scoring.submission import Prediction
@@ -34,22 +36,8 @@ MODEL_ID = "nsrm-v1"
 
 
 def val_iou_m(model: NSRM, enc: Encoded, split: bool = True) -> float:
-    """Mean IoU over the objects whose final box moved (IoU <= 0.9), for model selection.
-
-    The figures we report come from the public scorer on a predictions file; this is the
-    cheap in-loop number the progress bar shows and the best checkpoint is chosen by.
-    """
-    assert enc.final_boxes is not None
-    res = infer(model, enc, split=split)
-    scores = []
-    for i in range(len(enc)):
-        n = int(enc.object_mask[i].sum())
-        gold, init = enc.final_boxes[i, :n], enc.boxes[i, :n]
-        pred = world_to_boxes(res.worlds[i][-1], enc.image_size) if res.steps[i] else init
-        moved = iou(init, gold) <= 0.9
-        if moved.any():
-            scores.append(float(iou(pred, gold)[moved].mean()))
-    return sum(scores) / max(1, len(scores))
+    """The in-loop validation IoU-M (:func:`~.inference.inferred_iou_m`) of ``model``."""
+    return inferred_iou_m(enc, infer(model, enc, split=split))
 
 
 def train_nsrm(data: Path, out: Path, *, seed: int = 0, config: NSRMConfig | None = None,
@@ -60,20 +48,10 @@ def train_nsrm(data: Path, out: Path, *, seed: int = 0, config: NSRMConfig | Non
     which is then not trained on.
     """
     cfg = config or NSRMConfig()
-    if not (data / "train" / "manifest.json").exists():
-        msg = (f"{data} has no finished part 'train' ({data / 'train'}); pass a split root "
-               "holding train/ (and val/), e.g. generate one with `nsrmp-bench generate "
-               "--split paper-v2 --out data/paper`")
-        raise InvalidArgument(msg)
     torch.set_num_threads(cfg.threads)
     torch.manual_seed(seed)
     t0 = time.perf_counter()
-    train, vocab = encode_part(data / "train", targets=True)
-    if (data / "val" / "manifest.json").exists():
-        val, _ = encode_part(data / "val", vocab, targets=True)
-    else:
-        cut = len(train) - max(1, len(train) // 10)
-        train, val = train.select(range(cut)), train.select(range(cut, len(train)))
+    train, val, vocab = encode_train_val(data)
     model = NSRM(len(vocab), cfg)
     out.mkdir(parents=True, exist_ok=True)
     (out / "config.json").write_text(json.dumps(cfg.to_dict(), indent=1) + "\n", "utf-8")
@@ -132,8 +110,4 @@ class NSRMPredictor:
     def predict(self, items: Sequence[dict[str, Any]], camera: Camera) -> Iterator[Prediction]:
         """Predictions for dataset items (``{"id", "inputs"}``), positions via ``camera``."""
         enc, res = self.infer(items)
-        boxes = [world_to_boxes(w, enc.image_size).double().numpy() for w in res.worlds]
-        depths = [w[..., 4].double().numpy() for w in res.worlds]
-        n = enc.object_mask.sum(1).tolist()
-        init = [enc.boxes[i, : n[i]].double().numpy() for i in range(len(enc))]
-        return model_predictions(enc.ids, init, res.steps, boxes, depths, camera)
+        return inferred_predictions(enc, res, camera)

@@ -23,6 +23,8 @@ data selection, as in the paper; the model never reads them.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import torch
 from torch import Tensor, nn
 
@@ -30,7 +32,7 @@ from nsrmp_bench.reference_model.encoded import Encoded
 from nsrmp_bench.reference_model.nsrm.config import NSRMConfig
 from nsrmp_bench.reference_model.nsrm.executor import StepParse
 from nsrmp_bench.reference_model.nsrm.inference import split_recursively
-from nsrmp_bench.reference_model.nsrm.loss import box_loss, identification_loss, simulator_loss
+from nsrmp_bench.reference_model.nsrm.loss import box_loss, execution_loss
 from nsrmp_bench.reference_model.nsrm.model import (
     NSRM,
     Execution,
@@ -42,7 +44,7 @@ from nsrmp_bench.reference_model.nsrm.model import (
 from nsrmp_bench.reference_model.tokens import PAD
 from nsrmp_bench.reference_model.training import Stage
 
-__all__ = ["build_stages"]
+__all__ = ["build_stages", "feature_cache", "split_choice_loss"]
 
 
 def _params(*mods: nn.Module) -> list[nn.Parameter]:
@@ -56,18 +58,7 @@ class _Steps:
 
     def freeze_visual(self) -> None:
         """From here on the CNN is frozen: compute every training object's features once."""
-        was = self.model.training
-        self.model.eval()
-        parts = []
-        with torch.no_grad():
-            for lo in range(0, len(self.data), 256):
-                b = self.data.select(range(lo, min(lo + 256, len(self.data))))
-                f = self.model.features(b)
-                full = f.new_zeros((len(b), self.data.object_mask.shape[1], f.shape[-1]))
-                full[:, : f.shape[1]] = f
-                parts.append(full)
-        self.cache = torch.cat(parts)
-        self.model.train(was)
+        self.cache = feature_cache(self.model, self.model.features, self.data)
 
     def _batch(self, rows: Tensor) -> tuple[Encoded, SceneTensors, Tensor]:
         b = self.data.select(rows)
@@ -96,15 +87,9 @@ class _Steps:
 
     def _loss(self, b: Encoded, ex: Execution, pmask: Tensor, gold: Tensor,
               rows: Tensor) -> Tensor:
-        mask = b.object_mask[rows]
-        loss = (box_loss(ex.world, gold[rows], mask, b.image_size)
-                + identification_loss(ex.subjects, ex.bases, pmask, b.boxes[rows], gold[rows],
-                                      mask))
-        if pmask.shape[1] == 1:
-            loss = loss + simulator_loss(self.model.simulator, b.geometry[rows],
-                                         ex.actions[:, 0], b.boxes[rows], gold[rows], mask,
-                                         b.image_size)
-        return loss
+        return execution_loss(self.model.simulator, ex.world, ex.subjects, ex.bases,
+                              ex.actions, pmask, b.geometry[rows], b.boxes[rows], gold[rows],
+                              b.object_mask[rows], b.image_size)
 
     def reinforce(self, rows: Tensor, split: bool = False) -> Tensor:
         b, scene, gold = self._batch(rows)
@@ -135,34 +120,68 @@ class _Steps:
 
     def splitter(self, rows: Tensor) -> Tensor:
         b, scene, gold = self._batch(rows)
-        seqs = [row[row != PAD] for row in b.tokens]
-        options: list[tuple[int, int]] = []  # (row, logit index)
-        cuts: list[list[int]] = []
-        for i, s in enumerate(seqs):
-            options.append((i, 0))
-            cuts.append([])
-            for c in range(2, len(s) - 1):
-                options.append((i, 1 + c))
-                cuts.append([c])
-        idx = torch.tensor([o[0] for o in options])
-        with torch.no_grad():
-            was = self.model.training
-            self.model.eval()
-            pieces, pmask = split_pieces(b.tokens[idx], cuts)
+
+        def option_losses(idx: Tensor, pieces: Tensor, pmask: Tensor) -> Tensor:
             r, p, t = pieces.shape
             ptr, parse = self.model.tag(pieces.reshape(r * p, t))
             parses = piece_parses(parse, hard_pointers(ptr), r, p)
             ex = self.model.execute(scene.repeat(idx), parses, pmask, hard=True)
-            losses = box_loss(ex.world, gold[idx], b.object_mask[idx], b.image_size)
-            self.model.train(was)
-        logits = torch.log_softmax(self.model.splitter(b.tokens), -1)
-        chosen = logits[idx, torch.tensor([o[1] for o in options])]
-        # distil the softmin of the options' losses (per instruction) into the splitter
-        target = torch.zeros_like(losses)
-        for i in range(len(seqs)):
-            sel = idx == i
-            target[sel] = torch.softmax(-losses[sel] / 0.5, 0)
-        return -(target * chosen).sum() / len(seqs)
+            return box_loss(ex.world, gold[idx], b.object_mask[idx], b.image_size)
+
+        return split_choice_loss(self.model, self.model.splitter, b.tokens, option_losses)
+
+
+def feature_cache(model: nn.Module, features: Callable[[Encoded], Tensor],
+                  data: Encoded) -> Tensor:
+    """Every episode's object features (E, N, F) by ``features``, computed once with
+    ``model`` in eval mode (the CNN is frozen from then on)."""
+    was = model.training
+    model.eval()
+    parts = []
+    with torch.no_grad():
+        for lo in range(0, len(data), 256):
+            b = data.select(range(lo, min(lo + 256, len(data))))
+            f = features(b)
+            full = f.new_zeros((len(b), data.object_mask.shape[1], f.shape[-1]))
+            full[:, : f.shape[1]] = f
+            parts.append(full)
+    model.train(was)
+    return torch.cat(parts)
+
+
+def split_choice_loss(model: nn.Module, splitter: nn.Module, tokens: Tensor,
+                      option_losses: Callable[[Tensor, Tensor, Tensor], Tensor]) -> Tensor:
+    """The splitter's loss on a batch of instructions ``tokens`` (R, T): every split point
+    (and "no split") of every instruction is an option; ``option_losses(idx, pieces,
+    piece_mask)`` gives each option's box loss when its pieces are executed (``idx``: the
+    option's row, ``pieces`` (O, P, Tp) and ``piece_mask`` (O, P) as from
+    :func:`split_pieces`), run without gradients with ``model`` in eval mode; the splitter
+    learns the softmin of those losses per instruction (cross-entropy). NSRM and NMN+ train
+    their splitters with it."""
+    seqs = [row[row != PAD] for row in tokens]
+    options: list[tuple[int, int]] = []  # (row, logit index)
+    cuts: list[list[int]] = []
+    for i, s in enumerate(seqs):
+        options.append((i, 0))
+        cuts.append([])
+        for c in range(2, len(s) - 1):
+            options.append((i, 1 + c))
+            cuts.append([c])
+    idx = torch.tensor([o[0] for o in options])
+    with torch.no_grad():
+        was = model.training
+        model.eval()
+        pieces, pmask = split_pieces(tokens[idx], cuts)
+        losses = option_losses(idx, pieces, pmask)
+        model.train(was)
+    logits = torch.log_softmax(splitter(tokens), -1)
+    chosen = logits[idx, torch.tensor([o[1] for o in options])]
+    # distil the softmin of the options' losses (per instruction) into the splitter
+    target = torch.zeros_like(losses)
+    for i in range(len(seqs)):
+        sel = idx == i
+        target[sel] = torch.softmax(-losses[sel] / 0.5, 0)
+    return -(target * chosen).sum() / len(seqs)
 
 
 def build_stages(model: NSRM, data: Encoded, cfg: NSRMConfig) -> list[Stage]:

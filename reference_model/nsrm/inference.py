@@ -6,16 +6,30 @@ after each step, from which the predictions writer makes boxes.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Protocol
 
 import torch
 from torch import Tensor
 
+from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.reference_model.encoded import Encoded
+from nsrmp_bench.reference_model.nsrm.loss import iou, world_to_boxes
 from nsrmp_bench.reference_model.nsrm.model import NSRM, hard_pointers, piece_parses, split_pieces
+from nsrmp_bench.reference_model.nsrm.modules import Splitter
+from nsrmp_bench.reference_model.predictions import model_predictions
 from nsrmp_bench.reference_model.tokens import PAD
+from nsrmp_bench.scoring.submission import Prediction
 
-__all__ = ["Inferred", "infer", "split_recursively"]
+__all__ = ["Inferred", "infer", "inferred_iou_m", "inferred_predictions", "split_recursively"]
+
+
+class HasSplitter(Protocol):
+    """A model with NSRM's splitter (NSRM, NMN+)."""
+
+    @property
+    def splitter(self) -> Splitter: ...
 
 
 @dataclass
@@ -26,7 +40,7 @@ class Inferred:
     worlds: list[Tensor]
 
 
-def split_recursively(model: NSRM, tokens: Tensor, max_steps: int) -> list[list[int]]:
+def split_recursively(model: HasSplitter, tokens: Tensor, max_steps: int) -> list[list[int]]:
     """Cut positions per row: split each piece at the splitter's argmax until it says "no
     split" (or there are ``max_steps`` pieces)."""
     seqs = [row[row != PAD] for row in tokens]
@@ -79,3 +93,31 @@ def infer(model: NSRM, enc: Encoded, batch_size: int = 128, split: bool = True) 
                            int(ex.bases[i, k].argmax())) for k in range(n_steps)])
             worlds.append(ex.step_worlds[i, :n_steps, : n_obj[i]].clone())
     return Inferred(steps, worlds)
+
+
+def inferred_iou_m(enc: Encoded, res: Inferred) -> float:
+    """Mean IoU over the objects whose final box moved (IoU <= 0.9), for model selection.
+
+    The figures we report come from the public scorer on a predictions file; this is the
+    cheap in-loop number the progress bar shows and the best checkpoint is chosen by.
+    """
+    assert enc.final_boxes is not None
+    scores = []
+    for i in range(len(enc)):
+        n = int(enc.object_mask[i].sum())
+        gold, init = enc.final_boxes[i, :n], enc.boxes[i, :n]
+        pred = world_to_boxes(res.worlds[i][-1], enc.image_size) if res.steps[i] else init
+        moved = iou(init, gold) <= 0.9
+        if moved.any():
+            scores.append(float(iou(pred, gold)[moved].mean()))
+    return sum(scores) / max(1, len(scores))
+
+
+def inferred_predictions(enc: Encoded, res: Inferred, camera: Camera) -> Iterator[Prediction]:
+    """The public predictions of an object-centric model's inferred steps and worlds
+    (positions by back-projecting the box centres through ``camera``)."""
+    boxes = [world_to_boxes(w, enc.image_size).double().numpy() for w in res.worlds]
+    depths = [w[..., 4].double().numpy() for w in res.worlds]
+    n = enc.object_mask.sum(1).tolist()
+    init = [enc.boxes[i, : n[i]].double().numpy() for i in range(len(enc))]
+    return model_predictions(enc.ids, init, res.steps, boxes, depths, camera)

@@ -12,7 +12,14 @@ from __future__ import annotations
 import torch
 from torch import Tensor
 
-__all__ = ["box_loss", "identification_loss", "mover_and_base", "simulator_loss", "world_to_boxes"]
+__all__ = [
+    "box_loss",
+    "execution_loss",
+    "identification_loss",
+    "mover_and_base",
+    "simulator_loss",
+    "world_to_boxes",
+]
 
 
 def world_to_boxes(world: Tensor, image_size: tuple[int, int]) -> Tensor:
@@ -89,3 +96,20 @@ def identification_loss(subjects: Tensor, bases: Tensor, piece_mask: Tensor,
     subj = -(torch.log(mass) * piece_mask).sum(-1) * moved.any(-1)
     bmass = bases[:, 0].gather(1, target[:, None]).squeeze(1).clamp(min=1e-6)
     return subj - torch.log(bmass) * (single & (piece_mask.sum(-1) == 1))
+
+
+def execution_loss(sim: torch.nn.Module, world: Tensor, subjects: Tensor, bases: Tensor,
+                   actions: Tensor, piece_mask: Tensor, geometry: Tensor,
+                   initial_boxes: Tensor, final_boxes: Tensor, mask: Tensor,
+                   image_size: tuple[int, int]) -> Tensor:
+    """The whole loss per row (R,) of an execution: the final world's :func:`box_loss`,
+    :func:`identification_loss` of its per-step ``subjects`` and ``bases`` (R, P, N), and,
+    for one-step rows (``piece_mask`` (R, P) with P == 1), :func:`simulator_loss` with the
+    step's ``actions`` (R, P, 3). NSRM and NMN+ train on it."""
+    loss = (box_loss(world, final_boxes, mask, image_size)
+            + identification_loss(subjects, bases, piece_mask, initial_boxes, final_boxes,
+                                  mask))
+    if piece_mask.shape[1] == 1:
+        loss = loss + simulator_loss(sim, geometry, actions[:, 0], initial_boxes, final_boxes,
+                                     mask, image_size)
+    return loss

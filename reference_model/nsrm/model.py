@@ -27,7 +27,15 @@ from nsrmp_bench.reference_model.nsrm.modules import (
 )
 from nsrmp_bench.reference_model.tokens import PAD
 
-__all__ = ["NSRM", "Execution", "SceneTensors", "hard_pointers", "piece_parses", "split_pieces"]
+__all__ = [
+    "NSRM",
+    "Execution",
+    "SceneTensors",
+    "hard_pointers",
+    "object_features",
+    "piece_parses",
+    "split_pieces",
+]
 
 
 @dataclass
@@ -72,12 +80,7 @@ class NSRM(nn.Module):
     # --- scene -----------------------------------------------------------------------
     def features(self, enc: Encoded) -> Tensor:
         """Visual features (B, N, F) of the real objects (zeros for padding)."""
-        b, n = enc.object_mask.shape
-        real = enc.object_mask.reshape(-1)
-        out: Tensor = self.visual(enc.crops.reshape(b * n, *enc.crops.shape[2:])[real])
-        feats = out.new_zeros((b * n, out.shape[-1]))
-        feats[real] = out
-        return feats.reshape(b, n, -1)
+        return object_features(self.visual, enc)
 
     def scene(self, enc: Encoded, feats: Tensor | None = None) -> SceneTensors:
         """Ground the concepts on the episodes' objects (``feats``: cached features)."""
@@ -117,6 +120,17 @@ class NSRM(nn.Module):
             worlds.append(world)
         return Execution(world, torch.stack(subjects, 1), torch.stack(bases, 1),
                          torch.stack(actions, 1), torch.stack(worlds, 1))
+
+
+def object_features(visual: nn.Module, enc: Encoded) -> Tensor:
+    """The visual extractor's features (B, N, F) of the episodes' real objects (zeros for
+    padding)."""
+    b, n = enc.object_mask.shape
+    real = enc.object_mask.reshape(-1)
+    out: Tensor = visual(enc.crops.reshape(b * n, *enc.crops.shape[2:])[real])
+    feats = out.new_zeros((b * n, out.shape[-1]))
+    feats[real] = out
+    return feats.reshape(b, n, -1)
 
 
 def split_pieces(tokens: Tensor, cuts: list[list[int]]) -> tuple[Tensor, Tensor]:

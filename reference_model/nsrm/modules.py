@@ -35,6 +35,8 @@ __all__ = [
     "RelationScorer",
     "Splitter",
     "Tagger",
+    "VisualExtractor",
+    "WordEncoder",
 ]
 
 ATTRIBUTES = (*COLOURS, *SHAPES)
@@ -144,7 +146,10 @@ class ActionSimulator(nn.Module):
 _SCALE = torch.tensor([4.0, 4.0, 10.0, 10.0, 2.0])
 
 
-class _Encoder(nn.Module):
+class WordEncoder(nn.Module):
+    """Tokens (R, T) -> per-word states (R, T, 2 * hidden): a 2-layer BiGRU with word
+    dropout in training. NSRM's parser and splitter each have one (NMN+ reuses it)."""
+
     def __init__(self, vocab: int, cfg: NSRMConfig) -> None:
         super().__init__()
         self.embed = nn.Embedding(vocab, cfg.word_dim, padding_idx=PAD)
@@ -174,7 +179,7 @@ class Tagger(nn.Module):
 
     def __init__(self, vocab: int, cfg: NSRMConfig) -> None:
         super().__init__()
-        self.encoder = _Encoder(vocab, cfg)
+        self.encoder = WordEncoder(vocab, cfg)
         d = 2 * cfg.hidden
         self.keys = nn.Linear(d, d)
         self.queries = nn.Parameter(torch.randn(N_SLOTS, d) * 0.3)
@@ -205,7 +210,7 @@ class Splitter(nn.Module):
 
     def __init__(self, vocab: int, cfg: NSRMConfig) -> None:
         super().__init__()
-        self.encoder = _Encoder(vocab, cfg)
+        self.encoder = WordEncoder(vocab, cfg)
         self.score = nn.Sequential(nn.Linear(2 * cfg.hidden, 64), nn.ReLU(), nn.Linear(64, 1))
         self.none = nn.Sequential(nn.Linear(2 * cfg.hidden, 64), nn.ReLU(), nn.Linear(64, 1))
 

@@ -5,6 +5,7 @@ targets."""
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -23,17 +24,6 @@ TINY = [
 ]
 
 
-def _score(pred: Path, data: Path, tmp: Path) -> dict[str, Any]:
-    out = tmp / (pred.stem + ".scores.json")
-    assert main(["score", str(pred), "--data", str(data), "--json", str(out), "--quiet",
-                 "--n-boot", "0"]) == 0
-    return json.loads(out.read_text())  # type: ignore[no-any-return]
-
-
-def _headline(scores: dict[str, Any], name: str) -> float:
-    return float(scores["summary"][name]["value"])
-
-
 @pytest.fixture(scope="module")
 def tiny_run(tiny_paper: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("run")
@@ -42,7 +32,8 @@ def tiny_run(tiny_paper: Path, tmp_path_factory: pytest.TempPathFactory) -> Path
     return out
 
 
-def test_tiny_training_learns(tiny_run: Path, tiny_paper: Path, tmp_path: Path) -> None:
+def test_tiny_training_learns(tiny_run: Path, tiny_paper: Path, tmp_path: Path,
+                              iou_m_of: Callable[[Path, Path, Path], float]) -> None:
     log = [json.loads(x) for x in (tiny_run / "log.jsonl").read_text().splitlines()]
     losses = [r["loss"] for r in log if r["stage"] == "relational"]
     assert losses[-1] < 0.8 * losses[0], losses
@@ -53,8 +44,8 @@ def test_tiny_training_learns(tiny_run: Path, tiny_paper: Path, tmp_path: Path) 
     assert main(["baseline", "noop", "--data", str(train), "--out", str(noop)]) == 0
     assert main(["check-submission", str(pred), "--split", "paper-v2/train", "--data",
                  str(train)]) == 0
-    ours = _headline(_score(pred, train, tmp_path), "iou_m")
-    floor = _headline(_score(noop, train, tmp_path), "iou_m")
+    ours = iou_m_of(pred, train, tmp_path)
+    floor = iou_m_of(noop, train, tmp_path)
     assert ours > floor + 0.1 and ours > 3 * floor, (ours, floor)
     card = json.loads((tiny_run / "card.json").read_text())
     assert card["parameters"] > 0 and "final boxes" in card["supervision"]
@@ -120,44 +111,35 @@ def test_checkpoint_round_trips(tiny_run: Path, tmp_path: Path) -> None:
     assert again.vocab == model.vocab and again.config == model.config
 
 
-class _Forbidden(dict):  # type: ignore[type-arg]
-    def __getitem__(self, key: object) -> Any:
-        msg = f"the model read targets[{key!r}]"
-        raise AssertionError(msg)
-
-    def get(self, key: object, default: Any = None) -> Any:
-        return self[key]
-
-
-def test_model_never_reads_targets(tiny_run: Path, smoke_test: Path) -> None:
+def test_model_never_reads_targets(tiny_run: Path, smoke_test: Path,
+                                   hide_targets: Callable[[dict[str, Any]], dict[str, Any]]
+                                   ) -> None:
     from nsrmp_bench.dataset import EpisodeDataset
     from nsrmp_bench.reference_model import load_model
 
-    def hide(item: dict[str, Any]) -> dict[str, Any]:
-        return {**item, "targets": _Forbidden()}
-
-    ds = EpisodeDataset(smoke_test, transform=hide)
+    ds = EpisodeDataset(smoke_test, transform=hide_targets)
     items = [ds[i] for i in range(len(ds))]
     camera = ds.collection.episode(0, images=False).rendering.camera
     preds = list(load_model("nsrm", tiny_run / "best.pt").predict(items, camera))
     assert [p.id for p in preds] == ds.collection.ids
 
 
-def test_shipped_checkpoint_predicts_and_beats_noop(smoke_test: Path, tmp_path: Path) -> None:
+def test_shipped_checkpoint_predicts_and_beats_noop(
+        smoke_test: Path, tmp_path: Path, iou_m_of: Callable[[Path, Path, Path], float]) -> None:
     pred, noop = tmp_path / "nsrm.jsonl", tmp_path / "noop.jsonl"
     assert main(["predict", "nsrm", "--data", str(smoke_test), "--out", str(pred)]) == 0
     assert main(["check-submission", str(pred), "--split", "smoke-v2/test", "--data",
                  str(smoke_test)]) == 0
     assert main(["baseline", "noop", "--data", str(smoke_test), "--out", str(noop)]) == 0
-    ours = _headline(_score(pred, smoke_test, tmp_path), "iou_m")
-    floor = _headline(_score(noop, smoke_test, tmp_path), "iou_m")
+    ours = iou_m_of(pred, smoke_test, tmp_path)
+    floor = iou_m_of(noop, smoke_test, tmp_path)
     assert ours > floor + 0.05 and ours > 5 * floor, (ours, floor)
     header = json.loads(pred.read_text().splitlines()[0])["header"]
     assert header["model"] == "nsrm-v1" and header["split"] == "smoke-v2/test"
 
 
-def test_evaluate_runs_the_model_and_scores_it_like_predict(smoke_test: Path,
-                                                            tmp_path: Path) -> None:
+def test_evaluate_runs_the_model_and_scores_it_like_predict(
+        smoke_test: Path, tmp_path: Path, iou_m_of: Callable[[Path, Path, Path], float]) -> None:
     root = tmp_path / "data"
     (root / "smoke-v2").mkdir(parents=True)
     (root / "smoke-v2" / "test").symlink_to(smoke_test, target_is_directory=True)
@@ -172,7 +154,7 @@ def test_evaluate_runs_the_model_and_scores_it_like_predict(smoke_test: Path,
     assert run is not None and run.kind == "reference"
     written = out / run.predictions
     assert written.read_bytes() == pred.read_bytes()
-    assert run.metric("iou_m").value == _headline(_score(pred, smoke_test, tmp_path), "iou_m")
+    assert run.metric("iou_m").value == iou_m_of(pred, smoke_test, tmp_path)
 
 
 def test_bad_input_is_a_clear_error(tiny_paper: Path, tmp_path: Path,

@@ -22,6 +22,7 @@ from nsrmp_bench.results.paper_tables import (
     render_latex,
     render_markdown,
     replace_block,
+    row_label,
     table_rows,
 )
 from nsrmp_bench.results.summary import Results
@@ -54,7 +55,7 @@ def test_table_i_paper_rows_then_ours_from_the_summary() -> None:
     ours = results.on("paper-v2/test")
     assert ours
     for run in ours:
-        cells = rows[f"ours: {run.model}"]
+        cells = rows[row_label(run.model)]
         assert cells[1] == f"{run.metric('iou_m').value:.3f}"
         assert cells[2] == "/".join(f"{run.metric(m).value:.3f}" for m in
                                     ("action_all_steps", "subject_all_steps",
@@ -68,7 +69,7 @@ def test_table_ii_is_identification_and_placement_by_relational() -> None:
     results = Results.read(SITE)
     run = results.run("nsrm-v1", "paper-v2/test")
     assert run is not None
-    row = next(r for r in table_rows(TABLE_II, results) if r.label == "ours: nsrm-v1")
+    row = next(r for r in table_rows(TABLE_II, results) if r.label == "ours: NSRM (nsrm-v1)")
     assert row.values[0] == (run.metric("identification").value,)
     assert row.values[5] == (run.group("relational", "True", "placement").value,)
     md = _markdown_rows(render_markdown(results, paper=False), "Table II")
@@ -118,9 +119,9 @@ def test_report_cli_writes_md_tex_and_replaces_the_block(tmp_path: Path) -> None
 
 
 def test_rows_carry_the_registered_label() -> None:
-    from nsrmp_bench.results.paper_tables import run_label
+    from nsrmp_bench.results.paper_tables import row_label
 
-    assert run_label("dense-v1") == "ours: dense-v1 (not CLIPort)"
-    assert run_label("dense5x-v1") == "ours: dense5x-v1 (not CLIPort, 5x data)"
-    assert run_label("nsrm-v1") == "ours: nsrm-v1"
-    assert run_label("my-submission") == "ours: my-submission"
+    assert row_label("dense-v1") == "ours: dense-v1 (not CLIPort)"
+    assert row_label("dense5x-v1") == "ours: dense5x-v1 (not CLIPort, 5x data)"
+    assert row_label("nsrm-v1") == "ours: NSRM (nsrm-v1)"
+    assert row_label("my-submission") == "ours: my-submission"

@@ -2,16 +2,20 @@
 
 Usage::
 
-    .venv/bin/python scripts/bench_nsrm.py --data-root data [--model nsrm]
-        [--checkpoint PATH] [--out results/nsrm] [--run runs/nsrm]
+    .venv/bin/python scripts/bench_model.py --data-root data --model nsrm|nmn
+        [--checkpoint PATH] [--out results/MODEL] [--run runs/MODEL]
 
-For each test part found under the root (``paper/test``, ``objects/test``, ``steps/test``,
-``language/test``, ``attributes/test``) it runs ``nsrmp-bench predict`` (timed: wall
-seconds per 1,000 episodes), scores the file with the public scorer and prints the paper's
-table (IoU / IoU-M overall, single/double step, simple/relational; program accuracy;
-identification/placement on single-step), IoU-M by object count, step count and held-out
-kind, with 95% intervals. ``--run`` adds the training wall time from the run's model card.
-A part can use its own checkpoint with ``--part-checkpoint attributes=PATH``.
+For each test part found under the root (``smoke-v2/test``, ``paper-v2/test``,
+``objects-v2/test``, ``steps-v2/test``, ``language-v2/test``, ``attributes-v2/test``) it
+runs ``nsrmp-bench predict`` (timed: wall seconds per 1,000 episodes), scores the file
+with the public scorer and prints the paper's table (IoU / IoU-M overall, single/double
+step, simple/relational; program accuracy; identification/placement on single-step),
+IoU-M by object count, step count and held-out kind, with 95% intervals. ``--run`` adds
+the training wall time from the run's model card.
+A part can use its own checkpoint with ``--part-checkpoint attributes=PATH``. The
+predictions files it writes (``OUT/<split>-test.jsonl``) are the ones a leaderboard entry
+cites. The two models side by side (the paper's Table I layout, and the figures by
+objects and steps) come from ``nsrmp-bench evaluate nsrm nmn`` and ``report`` / ``plot``.
 """
 
 from __future__ import annotations
@@ -23,13 +27,8 @@ import sys
 import time
 from pathlib import Path
 
-PARTS = {
-    "paper-v2/test": "paper/test",
-    "objects-v2/test": "objects/test",
-    "steps-v2/test": "steps/test",
-    "language-v2/test": "language/test",
-    "attributes-v2/test": "attributes/test",
-}
+PARTS = ("smoke-v2/test", "paper-v2/test", "objects-v2/test", "steps-v2/test",
+         "language-v2/test", "attributes-v2/test")
 SUMMARY = ("iou_m", "iou", "success", "program_exact", "action_all_steps", "subject_all_steps",
            "predicate_all_steps", "subject_per_step", "identification", "placement")
 
@@ -42,22 +41,23 @@ def _cli() -> list[str]:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data-root", type=Path, required=True)
-    ap.add_argument("--model", default="nsrm")
+    ap.add_argument("--model", required=True, help="a learned model: nsrm, nmn, ...")
     ap.add_argument("--checkpoint", type=Path, default=None)
     ap.add_argument("--part-checkpoint", action="append", default=[], metavar="NAME=PATH")
-    ap.add_argument("--out", type=Path, default=Path("results/nsrm"))
+    ap.add_argument("--out", type=Path, default=None, help="default: results/MODEL")
     ap.add_argument("--run", type=Path, default=None, help="training run dir (model card)")
     args = ap.parse_args()
+    args.out = args.out or Path("results") / args.model
     args.out.mkdir(parents=True, exist_ok=True)
     per_part = dict(x.split("=", 1) for x in args.part_checkpoint)
     report: dict[str, object] = {}
-    for split, rel in PARTS.items():
-        data = args.data_root / rel
+    for split in PARTS:
+        data = args.data_root / split
         if not (data / "manifest.json").exists():
             print(f"-- {split}: no data at {data}, skipped")
             continue
         pred = args.out / (split.replace("/", "-") + ".jsonl")
-        ckpt = per_part.get(split.split("-v1")[0], args.checkpoint)
+        ckpt = per_part.get(split.split("-v")[0], args.checkpoint)
         cmd = [*_cli(), "predict", args.model, "--data", str(data), "--out", str(pred),
                "--quiet"] + (["--checkpoint", str(ckpt)] if ckpt else [])
         t0 = time.perf_counter()
@@ -72,8 +72,9 @@ def main() -> int:
         _print(split, res, seconds)
     if args.run is not None and (args.run / "card.json").exists():
         card = json.loads((args.run / "card.json").read_text())
+        cpu = f", {card['cpu_seconds']:.0f} s CPU" if "cpu_seconds" in card else ""
         print(f"\ntraining: {card['train_seconds']:.0f} s of training "
-              f"({card['wall_seconds']:.0f} s wall, {card['threads']} threads), "
+              f"({card['wall_seconds']:.0f} s wall{cpu}, {card['threads']} threads), "
               f"{card['parameters']:,} parameters")
         report["training"] = card
     (args.out / "bench.json").write_text(json.dumps(report, indent=1) + "\n")
