@@ -22,10 +22,6 @@ from nsrmp_bench.detection.detections import (
 from nsrmp_bench.detection.matching import hungarian_match, pairwise_iou
 from nsrmp_bench.detection.metrics import coco_ap, gold_scenes, score_detections
 
-DATA = Path(__file__).resolve().parents[2] / "data" / "smoke-v2" / "test"
-needs_data = pytest.mark.skipif(not (DATA / "manifest.json").exists(),
-                                reason="data/smoke-v2/test is not generated here")
-
 
 def _ap_101(gold: list[np.ndarray], det: list[np.ndarray], scores: list[np.ndarray],
             t: float) -> float:
@@ -118,9 +114,8 @@ def test_detections_file_round_trip_and_line_numbered_errors(tmp_path: Path):
     assert "line 4: duplicate id 'b'" in text and "line 5: invalid JSON" in text
 
 
-@needs_data
-def test_detection_scores_count_missed_and_merged_objects():
-    gold = gold_scenes(DATA)
+def test_detection_scores_count_missed_and_merged_objects(smoke_v2_test: Path):
+    gold = gold_scenes(smoke_v2_test)
     perfect = {g.id: Detections(g.id, g.boxes, np.ones(len(g.boxes)), g.shapes, g.colours)
                for g in gold}
     s = score_detections(gold, perfect)
@@ -139,11 +134,10 @@ def test_detection_scores_count_missed_and_merged_objects():
     assert s.recall < 1.0 and s.ap50 < 1.0
 
 
-@needs_data
-def test_classical_detector_finds_the_smoke_objects(tmp_path: Path):
+def test_classical_detector_finds_the_smoke_objects(tmp_path: Path, smoke_v2_test: Path):
     from nsrmp_bench.detection.part_detection import detect_part
 
-    det_id, out, n, _ = detect_part("classical", DATA, tmp_path / "c.jsonl")
+    det_id, out, n, _ = detect_part("classical", smoke_v2_test, tmp_path / "c.jsonl")
     assert det_id == "classical-v1" and n == 16
-    s = score_detections(gold_scenes(DATA), read_detections(out).by_id)
+    s = score_detections(gold_scenes(smoke_v2_test), read_detections(out).by_id)
     assert s.ap50 >= 0.9 and s.recall >= 0.9 and s.colour_accuracy >= 0.95

@@ -29,12 +29,9 @@ def tiny_paper(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="session")
-def smoke_test(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from nsrmp_bench.generators.generate import generate_split
-
-    out = tmp_path_factory.mktemp("smoke-models")
-    generate_split("smoke-v2", out, workers=2)
-    return out / "test"
+def smoke_test(smoke_v2_test: Path) -> Path:
+    """smoke-v2/test (the session's, from tests/conftest.py)."""
+    return smoke_v2_test
 
 
 @pytest.fixture(scope="session")

@@ -18,9 +18,6 @@ from nsrmp_bench.scoring.gold import load_gold
 from nsrmp_bench.storage import open as open_data
 
 pytest.importorskip("scipy")
-DATA = Path(__file__).resolve().parents[2] / "data" / "smoke-v2" / "test"
-pytestmark = pytest.mark.skipif(not (DATA / "manifest.json").exists(),
-                                reason="data/smoke-v2/test is not generated here")
 
 
 def _lines(path: Path) -> tuple[dict, list[dict]]:
@@ -33,8 +30,8 @@ def _write(path: Path, header: dict, recs: list[dict]) -> Path:
     return path
 
 
-def _initial_boxes() -> dict[str, np.ndarray]:
-    col = open_data(DATA)
+def _initial_boxes(data: Path) -> dict[str, np.ndarray]:
+    col = open_data(data)
     return {col.read_inputs(i)["id"]: np.asarray(col.read_inputs(i)["boxes"], float)
             for i in range(len(col))}
 
@@ -67,19 +64,19 @@ def _kept_object(gold, rec: dict) -> int:
 
 
 @pytest.fixture(scope="module")
-def gold_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def gold_file(tmp_path_factory: pytest.TempPathFactory, smoke_v2_test: Path) -> Path:
     out = tmp_path_factory.mktemp("detected") / "random.jsonl"
-    col = open_data(DATA)
+    col = open_data(smoke_v2_test)
     return run_baseline("random", col.iter_episodes(images=False), out, split=col.split)
 
 
-def test_perfect_detector_reproduces_the_gold_box_score(gold_file: Path, tmp_path: Path):
+def test_perfect_detector_reproduces_the_gold_box_score(gold_file: Path, tmp_path: Path, smoke_v2_test: Path):
     header, recs = _lines(gold_file)
-    init = _initial_boxes()
+    init = _initial_boxes(smoke_v2_test)
     rng = np.random.default_rng(0)
     det = [_as_detected(r, init[r["id"]], rng.permutation(len(r["boxes"]))) for r in recs]
-    a = score(gold_file, DATA, n_boot=0)
-    b = score(_write(tmp_path / "det.jsonl", header, det), DATA, n_boot=0)
+    a = score(gold_file, smoke_v2_test, n_boot=0)
+    b = score(_write(tmp_path / "det.jsonl", header, det), smoke_v2_test, n_boot=0)
     pd_cols = ["iou", "iou_m", "success", "program_exact", "subject_per_step",
                "identification", "placement"]
     np.testing.assert_allclose(b.per_instance[pd_cols].to_numpy(float),
@@ -90,11 +87,11 @@ def test_perfect_detector_reproduces_the_gold_box_score(gold_file: Path, tmp_pat
 
 
 def test_dropping_one_detection_lowers_the_score_by_that_objects_share(
-        gold_file: Path, tmp_path: Path):
+        gold_file: Path, tmp_path: Path, smoke_v2_test: Path):
     header, recs = _lines(gold_file)
-    init = _initial_boxes()
+    init = _initial_boxes(smoke_v2_test)
     full = [_as_detected(r, init[r["id"]], np.arange(len(r["boxes"]))) for r in recs]
-    gold = load_gold(DATA)
+    gold = load_gold(smoke_v2_test)
     i, j = 3, _kept_object(gold, recs[3])  # drop gold object j of instance i
     dropped = [dict(r) for r in full]
     rec = dict(recs[i])
@@ -103,8 +100,8 @@ def test_dropping_one_detection_lowers_the_score_by_that_objects_share(
         full[i].pop(key, None)
     keep = [g for g in range(len(rec["boxes"])) if g != j]
     dropped[i] = _as_detected(rec, init[rec["id"]], np.asarray(keep))
-    a = score(_write(tmp_path / "full.jsonl", header, full), DATA, n_boot=0)
-    b = score(_write(tmp_path / "drop.jsonl", header, dropped), DATA, n_boot=0)
+    a = score(_write(tmp_path / "full.jsonl", header, full), smoke_v2_test, n_boot=0)
+    b = score(_write(tmp_path / "drop.jsonl", header, dropped), smoke_v2_test, n_boot=0)
     iid = recs[i]["id"]
     n_obj = len(recs[i]["boxes"])
     obj_iou = _object_ious(gold, recs[i])[j]
@@ -117,16 +114,16 @@ def test_dropping_one_detection_lowers_the_score_by_that_objects_share(
     assert b.counts["detected_objects_unmatched"] == 1
 
 
-def test_bad_detected_lines_are_refused_with_their_line(gold_file: Path, tmp_path: Path):
+def test_bad_detected_lines_are_refused_with_their_line(gold_file: Path, tmp_path: Path, smoke_v2_test: Path):
     header, recs = _lines(gold_file)
-    init = _initial_boxes()
+    init = _initial_boxes(smoke_v2_test)
     det = [_as_detected(r, init[r["id"]], np.arange(len(r["boxes"]))) for r in recs]
     det[0]["boxes"] = det[0]["boxes"][:-1]  # one box fewer than detections
     det[2]["detections"][0] = [10, 10, 5, 5]  # x2 < x1
     det[4]["detections"][0] = [10, 10, 900, 20]  # outside the image
     det[6]["detections"] = 5  # not a list
     with pytest.raises(SubmissionError) as err:
-        score(_write(tmp_path / "bad.jsonl", header, det), DATA, n_boot=0)
+        score(_write(tmp_path / "bad.jsonl", header, det), smoke_v2_test, n_boot=0)
     text = str(err.value)
     assert "line 2" in text and "'detections' has" in text
     assert "line 4" in text and "detections[0]" in text

@@ -10,9 +10,6 @@ pytest.importorskip("pybullet")
 
 
 @pytest.fixture(scope="session")
-def smoke_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from nsrmp_bench.generators.generate import generate_split
-
-    out = tmp_path_factory.mktemp("smoke")
-    generate_split("smoke-v2", out, workers=2)  # the official shard size
-    return out
+def smoke_dir(smoke_v2_root: Path) -> Path:
+    """The session's smoke-v2 split root (tests/conftest.py)."""
+    return smoke_v2_root

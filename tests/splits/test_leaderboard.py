@@ -39,8 +39,9 @@ def test_smoke_board_rebuilds_to_the_committed_bytes(smoke_dir: Path, tmp_path: 
     root.mkdir()
     (root / "smoke-v2").symlink_to(smoke_dir, target_is_directory=True)
     boards, _ = publish(entries, root, tmp_path / "out")
-    assert [r["model"] for r in boards["smoke-v2/test"]] == [
-        "oracle-v1", "nsrm-v1", "random-v1", "noop-v1"]
+    models = [r["model"] for r in boards["smoke-v2/test"]]
+    assert models[0] == "oracle-v1"
+    assert {"nsrm-v1", "nmn-v1", "dense-v1", "random-v1", "noop-v1"} <= set(models)
     for suffix in (".json", ".md"):
         rebuilt = (tmp_path / "out" / f"smoke-v2-test{suffix}").read_text()
         assert rebuilt == (BOARDS / f"smoke-v2-test{suffix}").read_text()
