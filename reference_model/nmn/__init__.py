@@ -8,26 +8,23 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import torch
 
-from nsrmp_bench.geometry.camera import Camera
-from nsrmp_bench.reference_model.checkpoints import load_checkpoint, save_checkpoint, write_card
-from nsrmp_bench.reference_model.encoded import Encoded, encode_inputs, encode_train_val
+from nsrmp_bench.reference_model.checkpoints import save_checkpoint, write_card
+from nsrmp_bench.reference_model.encoded import Encoded, encode_train_val
 from nsrmp_bench.reference_model.nmn.config import NMNConfig
 from nsrmp_bench.reference_model.nmn.curriculum import build_stages
 from nsrmp_bench.reference_model.nmn.model import NMN, infer
 from nsrmp_bench.reference_model.nsrm.inference import (
     Inferred,
+    ProgramPredictor,
     inferred_iou_m,
-    inferred_predictions,
 )
-from nsrmp_bench.reference_model.tokens import Vocabulary
 from nsrmp_bench.reference_model.training import train_stages
-from nsrmp_bench.scoring.submission import Prediction
 
 __all__ = ["MODEL_ID", "NMNConfig", "NMNPredictor", "train_nmn"]
 
@@ -80,27 +77,17 @@ def train_nmn(data: Path, out: Path, *, seed: int = 0, config: NMNConfig | None 
     return best
 
 
-class NMNPredictor:
+class NMNPredictor(ProgramPredictor):
     """A loaded NMN+: predicts from what ``EpisodeDataset`` gives as ``inputs`` only."""
 
     model_id = MODEL_ID
+    model: NMN
 
-    def __init__(self, checkpoint: str | Path) -> None:
-        payload = load_checkpoint(checkpoint, MODEL_ID)
-        self.config = NMNConfig.from_dict(payload["config"])
-        self.vocab = Vocabulary(tuple(payload["vocab"]))
-        self.model = NMN(len(self.vocab), self.config)
-        self.model.load_state_dict(payload["state"])
-        self.model.eval()
-        self.checkpoint = Path(checkpoint)
+    def read_config(self, data: Mapping[str, Any]) -> NMNConfig:
+        return NMNConfig.from_dict(dict(data))
 
-    def infer(self, items: Sequence[dict[str, Any]]) -> tuple[Encoded, Inferred]:
-        """Encode the items' inputs and run the model."""
-        torch.set_num_threads(self.config.threads)
-        enc = encode_inputs(items, self.vocab)
-        return enc, infer(self.model, enc)
+    def build(self, vocab_size: int) -> NMN:
+        return NMN(vocab_size, self.config)
 
-    def predict(self, items: Sequence[dict[str, Any]], camera: Camera) -> Iterator[Prediction]:
-        """Predictions for dataset items (``{"id", "inputs"}``), positions via ``camera``."""
-        enc, res = self.infer(items)
-        return inferred_predictions(enc, res, camera)
+    def run(self, enc: Encoded) -> Inferred:
+        return infer(self.model, enc)

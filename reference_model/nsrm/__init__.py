@@ -8,27 +8,24 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import torch
 
-from nsrmp_bench.geometry.camera import Camera
-from nsrmp_bench.reference_model.checkpoints import load_checkpoint, save_checkpoint, write_card
-from nsrmp_bench.reference_model.encoded import Encoded, encode_inputs, encode_train_val
+from nsrmp_bench.reference_model.checkpoints import save_checkpoint, write_card
+from nsrmp_bench.reference_model.encoded import Encoded, encode_train_val
 from nsrmp_bench.reference_model.nsrm.config import NSRMConfig
 from nsrmp_bench.reference_model.nsrm.curriculum import build_stages
 from nsrmp_bench.reference_model.nsrm.inference import (
     Inferred,
+    ProgramPredictor,
     infer,
     inferred_iou_m,
-    inferred_predictions,
 )
 from nsrmp_bench.reference_model.nsrm.model import NSRM
-from nsrmp_bench.reference_model.tokens import Vocabulary
 from nsrmp_bench.reference_model.training import train_stages
-from nsrmp_bench.scoring.submission import Prediction
 
 __all__ = ["MODEL_ID", "NSRMConfig", "NSRMPredictor", "train_nsrm", "val_iou_m"]
 
@@ -87,27 +84,17 @@ def model_card(n_train: int, train_seconds: float, n_params: int, best: float,
     }
 
 
-class NSRMPredictor:
+class NSRMPredictor(ProgramPredictor):
     """A loaded NSRM: predicts from what ``EpisodeDataset`` gives as ``inputs`` only."""
 
     model_id = MODEL_ID
+    model: NSRM
 
-    def __init__(self, checkpoint: str | Path) -> None:
-        payload = load_checkpoint(checkpoint, MODEL_ID)
-        self.config = NSRMConfig.from_dict(payload["config"])
-        self.vocab = Vocabulary(tuple(payload["vocab"]))
-        self.model = NSRM(len(self.vocab), self.config)
-        self.model.load_state_dict(payload["state"])
-        self.model.eval()
-        self.checkpoint = Path(checkpoint)
+    def read_config(self, data: Mapping[str, Any]) -> NSRMConfig:
+        return NSRMConfig.from_dict(dict(data))
 
-    def infer(self, items: Sequence[dict[str, Any]]) -> tuple[Encoded, Inferred]:
-        """Encode the items' inputs and run the model."""
-        torch.set_num_threads(self.config.threads)
-        enc = encode_inputs(items, self.vocab)
-        return enc, infer(self.model, enc)
+    def build(self, vocab_size: int) -> NSRM:
+        return NSRM(vocab_size, self.config)
 
-    def predict(self, items: Sequence[dict[str, Any]], camera: Camera) -> Iterator[Prediction]:
-        """Predictions for dataset items (``{"id", "inputs"}``), positions via ``camera``."""
-        enc, res = self.infer(items)
-        return inferred_predictions(enc, res, camera)
+    def run(self, enc: Encoded) -> Inferred:
+        return infer(self.model, enc)
