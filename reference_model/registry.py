@@ -72,6 +72,15 @@ MODELS: dict[str, ModelEntry] = {
                    "object features), learnt from initial and final scenes",
                    "nsrmp_bench.reference_model.nmn", "train_nmn", "NMNPredictor",
                    "NMNConfig"),
+        ModelEntry("nsrm-v2", "neuro-symbolic reference model v2 (gold boxes): words as "
+                   "concepts, a role parser, relations on the current state, a splitter "
+                   "and a 3D action rule, learnt from initial and final boxes",
+                   "nsrmp_bench.reference_model.nsrm2", "train_nsrm2", "NSRM2Predictor",
+                   "NSRM2Config"),
+        ModelEntry("nmn-v2", "NMN+ attention baseline v2 (gold boxes) on NSRM v2's "
+                   "perception, splitter, action rule and training: attention in place of "
+                   "the program", "nsrmp_bench.reference_model.nmn2", "train_nmn2",
+                   "NMN2Predictor", "NMN2Config"),
     )
 }
 

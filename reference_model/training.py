@@ -61,12 +61,13 @@ def _save(path: Path, payload: dict[str, Any]) -> None:
 
 
 def train_stages(model: nn.Module, stages: Sequence[Stage], out: Path, *, seed: int,
-                 validate: Callable[[Stage], float], on_best: Callable[[], None],
+                 validate: Callable[[Stage], float | tuple[float, dict[str, float]]],
+                 on_best: Callable[[], None],
                  quiet: bool = False, score_name: str = "val IoU-M") -> TrainState:
     """Run ``stages`` (resuming from ``out/last.pt`` if there), selecting on ``validate``.
 
     ``validate`` returns the validation score of the model (higher is better) after each
-    epoch of a stage;
+    epoch of a stage, or the score and more validation figures for the log;
     ``on_best`` is called when it improves (the caller writes its best checkpoint); only
     stages that validate the model as it is used (``uses_splitter``) take part, and if none
     ran, the last model is the one kept. ``score_name`` names the score on the progress bar
@@ -119,7 +120,8 @@ def train_stages(model: nn.Module, stages: Sequence[Stage], out: Path, *, seed: 
                         optim.step()
                         total += float(loss.detach())
                         bar.update(task, advance=1, info=f"loss {total / (b + 1):.3f}")
-                    score = validate(stage)
+                    found = validate(stage)
+                    score, more = found if isinstance(found, tuple) else (found, {})
                     state.seconds += time.perf_counter() - t0
                     # select only among models that run as they will be used
                     improved = stage.uses_splitter and score > state.best
@@ -129,7 +131,8 @@ def train_stages(model: nn.Module, stages: Sequence[Stage], out: Path, *, seed: 
                     state.epoch = epoch + 1
                     record = {"stage": stage.name, "epoch": epoch + 1,
                               "loss": round(total / n_batches, 5), log_key: round(score, 5),
-                              "best": improved, "seconds": round(state.seconds, 1)}
+                              "best": improved, "seconds": round(state.seconds, 1),
+                              **{k: round(v, 5) for k, v in more.items()}}
                     _save(ckpt, {"model": model.state_dict(), "optim": optim.state_dict(),
                                  "state": {**state.__dict__, "stage": si}})
                     log.write(json.dumps(record) + "\n")  # after the checkpoint it records

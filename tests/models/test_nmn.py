@@ -24,7 +24,7 @@ TINY = ["--set", "epochs_single=20", "--set", "epochs_splitter=1",
 @pytest.fixture(scope="module")
 def tiny_nmn(tiny_paper: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("nmn-run")
-    assert main(["train", "nmn", "--data", str(tiny_paper), "--out", str(out), "--quiet",
+    assert main(["train", "nmn-v1", "--data", str(tiny_paper), "--out", str(out), "--quiet",
                  *TINY]) == 0
     return out
 
@@ -36,7 +36,7 @@ def test_tiny_training_learns(tiny_nmn: Path, tiny_paper: Path, tmp_path: Path,
     assert losses[-1] < 0.8 * losses[0], losses
     pred, noop = tmp_path / "nmn.jsonl", tmp_path / "noop.jsonl"
     train = tiny_paper / "train"
-    assert main(["predict", "nmn", "--data", str(train), "--out", str(pred),
+    assert main(["predict", "nmn-v1", "--data", str(train), "--out", str(pred),
                  "--checkpoint", str(tiny_nmn / "best.pt"), "--quiet"]) == 0
     assert main(["baseline", "noop", "--data", str(train), "--out", str(noop)]) == 0
     assert main(["check-submission", str(pred), "--split", "paper-v2/train", "--data",
@@ -54,7 +54,7 @@ def test_same_seed_same_checkpoint_bytes(tiny_paper: Path, tmp_path: Path) -> No
     runs = []
     for name in ("a", "b"):
         out = tmp_path / name
-        assert main(["train", "nmn", "--data", str(tiny_paper), "--out", str(out),
+        assert main(["train", "nmn-v1", "--data", str(tiny_paper), "--out", str(out),
                      *short]) == 0
         runs.append((out / "best.pt").read_bytes())
     assert runs[0] == runs[1]
@@ -69,14 +69,14 @@ def test_model_never_reads_targets(tiny_nmn: Path, smoke_test: Path,
     ds = EpisodeDataset(smoke_test, transform=hide_targets)
     items = [ds[i] for i in range(len(ds))]
     camera = ds.collection.episode(0, images=False).rendering.camera
-    preds = list(load_model("nmn", tiny_nmn / "best.pt").predict(items, camera))
+    preds = list(load_model("nmn-v1", tiny_nmn / "best.pt").predict(items, camera))
     assert [p.id for p in preds] == ds.collection.ids
 
 
 def test_shipped_checkpoint_predicts_and_beats_noop(
         smoke_test: Path, tmp_path: Path, iou_m_of: Callable[[Path, Path, Path], float]) -> None:
     pred, noop = tmp_path / "nmn.jsonl", tmp_path / "noop.jsonl"
-    assert main(["predict", "nmn", "--data", str(smoke_test), "--out", str(pred)]) == 0
+    assert main(["predict", "nmn-v1", "--data", str(smoke_test), "--out", str(pred)]) == 0
     assert main(["check-submission", str(pred), "--split", "smoke-v2/test", "--data",
                  str(smoke_test)]) == 0
     assert main(["baseline", "noop", "--data", str(smoke_test), "--out", str(noop)]) == 0

@@ -27,7 +27,7 @@ TINY = [
 @pytest.fixture(scope="module")
 def tiny_run(tiny_paper: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("run")
-    assert main(["train", "nsrm", "--data", str(tiny_paper), "--out", str(out), "--quiet",
+    assert main(["train", "nsrm-v1", "--data", str(tiny_paper), "--out", str(out), "--quiet",
                  *TINY]) == 0
     return out
 
@@ -39,7 +39,7 @@ def test_tiny_training_learns(tiny_run: Path, tiny_paper: Path, tmp_path: Path,
     assert losses[-1] < 0.8 * losses[0], losses
     pred, noop = tmp_path / "nsrm.jsonl", tmp_path / "noop.jsonl"
     train = tiny_paper / "train"
-    assert main(["predict", "nsrm", "--data", str(train), "--out", str(pred),
+    assert main(["predict", "nsrm-v1", "--data", str(train), "--out", str(pred),
                  "--checkpoint", str(tiny_run / "best.pt"), "--quiet"]) == 0
     assert main(["baseline", "noop", "--data", str(train), "--out", str(noop)]) == 0
     assert main(["check-submission", str(pred), "--split", "paper-v2/train", "--data",
@@ -58,7 +58,7 @@ def test_same_seed_same_checkpoint_bytes(tiny_paper: Path, tmp_path: Path) -> No
     runs = []
     for name in ("a", "b"):
         out = tmp_path / name
-        assert main(["train", "nsrm", "--data", str(tiny_paper), "--out", str(out),
+        assert main(["train", "nsrm-v1", "--data", str(tiny_paper), "--out", str(out),
                      *short]) == 0
         runs.append((out / "best.pt").read_bytes())
     assert runs[0] == runs[1]
@@ -72,7 +72,7 @@ def test_resume_after_interruption_continues(tiny_paper: Path, tmp_path: Path) -
     import time
 
     out = tmp_path / "r"
-    cmd = ["train", "nsrm", "--data", str(tiny_paper), "--out", str(out), "--quiet",
+    cmd = ["train", "nsrm-v1", "--data", str(tiny_paper), "--out", str(out), "--quiet",
            "--set", "epochs_attribute=2", "--set", "epochs_relational=3",
            "--set", "epochs_reinforce=0", "--set", "epochs_splitter=0",
            "--set", "epochs_multistep=0"]
@@ -105,7 +105,7 @@ def test_checkpoint_round_trips(tiny_run: Path, tmp_path: Path) -> None:
     model = load_model("nsrm-v1", tiny_run / "best.pt")
     copy = save_checkpoint(tmp_path / "copy.pt", "nsrm-v1", model.config.to_dict(),
                            model.vocab.to_list(), model.model.state_dict())
-    again = load_model("nsrm", copy)
+    again = load_model("nsrm-v1", copy)
     a, b = model.model.state_dict(), again.model.state_dict()
     assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
     assert again.vocab == model.vocab and again.config == model.config
@@ -120,14 +120,14 @@ def test_model_never_reads_targets(tiny_run: Path, smoke_test: Path,
     ds = EpisodeDataset(smoke_test, transform=hide_targets)
     items = [ds[i] for i in range(len(ds))]
     camera = ds.collection.episode(0, images=False).rendering.camera
-    preds = list(load_model("nsrm", tiny_run / "best.pt").predict(items, camera))
+    preds = list(load_model("nsrm-v1", tiny_run / "best.pt").predict(items, camera))
     assert [p.id for p in preds] == ds.collection.ids
 
 
 def test_shipped_checkpoint_predicts_and_beats_noop(
         smoke_test: Path, tmp_path: Path, iou_m_of: Callable[[Path, Path, Path], float]) -> None:
     pred, noop = tmp_path / "nsrm.jsonl", tmp_path / "noop.jsonl"
-    assert main(["predict", "nsrm", "--data", str(smoke_test), "--out", str(pred)]) == 0
+    assert main(["predict", "nsrm-v1", "--data", str(smoke_test), "--out", str(pred)]) == 0
     assert main(["check-submission", str(pred), "--split", "smoke-v2/test", "--data",
                  str(smoke_test)]) == 0
     assert main(["baseline", "noop", "--data", str(smoke_test), "--out", str(noop)]) == 0
@@ -144,9 +144,9 @@ def test_evaluate_runs_the_model_and_scores_it_like_predict(
     (root / "smoke-v2").mkdir(parents=True)
     (root / "smoke-v2" / "test").symlink_to(smoke_test, target_is_directory=True)
     pred = tmp_path / "nsrm.jsonl"
-    assert main(["predict", "nsrm", "--data", str(smoke_test), "--out", str(pred)]) == 0
+    assert main(["predict", "nsrm-v1", "--data", str(smoke_test), "--out", str(pred)]) == 0
     out = tmp_path / "results"
-    assert main(["evaluate", "nsrm", "--data-root", str(root), "--out", str(out),
+    assert main(["evaluate", "nsrm-v1", "--data-root", str(root), "--out", str(out),
                  "--quiet"]) == 0
     from nsrmp_bench.results.summary import Results
 
@@ -159,17 +159,17 @@ def test_evaluate_runs_the_model_and_scores_it_like_predict(
 
 def test_bad_input_is_a_clear_error(tiny_paper: Path, tmp_path: Path,
                                     capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["predict", "nsrm", "--data", str(tiny_paper), "--out",
+    assert main(["predict", "nsrm-v1", "--data", str(tiny_paper), "--out",
                  str(tmp_path / "p.jsonl")]) == 2
     assert "split root holding the parts: train, val" in capsys.readouterr().err
     assert main(["predict", "nsrmm", "--data", str(tiny_paper / "val"), "--out",
                  str(tmp_path / "p.jsonl")]) == 2
     assert "did you mean 'nsrm'" in capsys.readouterr().err
-    assert main(["train", "nsrm", "--data", str(tiny_paper / "val"), "--out",
+    assert main(["train", "nsrm-v1", "--data", str(tiny_paper / "val"), "--out",
                  str(tmp_path / "r"), "--set", "epochs=3"]) == 2
     assert "not KEY=VALUE with a field" in capsys.readouterr().err
     bad = tmp_path / "bad.pt"
     bad.write_bytes(b"not a checkpoint")
-    assert main(["predict", "nsrm", "--data", str(tiny_paper / "val"), "--out",
+    assert main(["predict", "nsrm-v1", "--data", str(tiny_paper / "val"), "--out",
                  str(tmp_path / "p.jsonl"), "--checkpoint", str(bad)]) == 2
     assert "cannot be read" in capsys.readouterr().err

@@ -1,0 +1,33 @@
+"""The NSRM v2 configuration: sizes, stages and optimisation, one frozen dataclass."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+__all__ = ["NSRM2Config"]
+
+
+@dataclass(frozen=True)
+class NSRM2Config:
+    """Everything that shapes an NSRM v2 run; stored in every checkpoint."""
+
+    concept_dim: int = 32
+    word_dim: int = 32
+    hidden: int = 64
+    # stages (see reference_model/program/training.py)
+    epochs_warmup: int = 2  # first stage: see StepModel.warmup_parameters
+    epochs_single: int = 14  # one-step programs on episodes where one box changed
+    epochs_joint: int = 3  # every episode: splits and one- or two-step programs
+    batch_size: int = 32
+    lr: float = 1e-2
+    threads: int = 2
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able form."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> NSRM2Config:
+        """Inverse of :meth:`to_dict` (unknown keys are an error)."""
+        return cls(**data)

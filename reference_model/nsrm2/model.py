@@ -1,0 +1,116 @@
+"""NSRM v2's step model: concepts tied to words (D2) and a role parser with structure (D3).
+
+**Words are concepts.** Each vocabulary word carries its own meaning in every kind: an
+attribute concept (a vector scored against an object's features, and a bias), an
+affinity for the object the previous step moved (what ``it`` comes to mean), a relation
+(weights over the world offset between two objects: left/right, behind/front, above) and
+action logits (top, left, right). Which words name concepts, and of which kind, is what
+training decides; synonyms learn separate concepts. There is no slot inventory to permute.
+
+**The parser labels roles.** A token encoder (convolutions and self-attention) reads the
+piece and gives every token a distribution over roles: nothing, or for each of the subject
+and the base its head, its relation or its relation's anchor; and a probability that it
+speaks of the action. A reference's
+head filter is the
+role-weighted conjunction of its head words' concepts; a relational reference scores each
+object by the relation to an anchor chosen by the anchor words' conjunction. Relations
+are read on the centres the step is given: the world as the previous steps left it (D5).
+The role marginals are expectations of a linear score, so training and inference read
+the same parse (the argmax role of each token at inference is not needed: the score is
+linear in the roles).
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from nsrmp_bench.reference_model.nsrm2.config import NSRM2Config
+from nsrmp_bench.reference_model.program.modules import (
+    Perception,
+    StepModel,
+    StepOutput,
+    TokenEncoder,
+)
+from nsrmp_bench.reference_model.tokens import PAD
+
+__all__ = ["ROLES", "ConceptStepModel"]
+
+ROLES = ("none", "action", "subject", "subject-relation", "subject-anchor", "base",
+         "base-relation", "base-anchor")
+_ACTION = 1
+_REFS = ((2, 3, 4), (5, 6, 7))  # (head, relation, anchor) roles of subject and base
+_OFFSET_SCALE = 0.05  # metres: relation weights read offsets in object sizes
+
+
+class ConceptStepModel(StepModel):
+    """The NSRM v2 step model (see the module doc)."""
+
+    def __init__(self, vocab_size: int, cfg: NSRM2Config) -> None:
+        super().__init__()
+        self.cfg = cfg
+        d = cfg.concept_dim
+        self.perception = Perception(d)
+        self.concept = nn.Embedding(vocab_size, d)
+        self.concept_bias = nn.Embedding(vocab_size, 1)
+        self.previous = nn.Embedding(vocab_size, 1)
+        self.relation = nn.Embedding(vocab_size, 3)
+        self.relation_bias = nn.Embedding(vocab_size, 1)
+        self.action = nn.Embedding(vocab_size, 3)
+        for emb in (self.previous, self.relation, self.relation_bias, self.action):
+            nn.init.zeros_(emb.weight)
+        nn.init.zeros_(self.concept.weight)  # no word means anything yet: no noise
+        nn.init.zeros_(self.concept_bias.weight)
+        self.encoder = TokenEncoder(vocab_size, cfg.hidden)
+        self.roles = nn.Linear(cfg.hidden, len(ROLES))
+
+    def warmup_parameters(self) -> list[nn.Parameter]:
+        """Perception and the words' concepts, with the parser's roles held uniform: with
+        no concept learnt yet, a free parser collapses onto whatever role costs least."""
+        parser = {id(p) for p in (*self.encoder.parameters(), *self.roles.parameters())}
+        return [p for p in self.parameters() if id(p) not in parser]
+
+    def code(self, pieces: Tensor) -> Tensor:
+        """Role probabilities (P, T, ROLES); padding has none.
+
+        The reference roles (and "none") are one distribution per token; whether a token
+        speaks of the action is a separate probability, so that the action, which is easy
+        to learn, cannot take every word from the references while they are learnt."""
+        logits = self.roles(self.encoder(pieces))
+        refs = torch.softmax(torch.cat([logits[..., :_ACTION], logits[..., _ACTION + 1 :]],
+                                       -1), -1)
+        # a word inside a reference is not an action word: the action weight is the
+        # action probability times the probability of belonging to no reference
+        action = torch.sigmoid(logits[..., _ACTION : _ACTION + 1]) * refs[..., :1]
+        probs = torch.cat([refs[..., :_ACTION], action, refs[..., _ACTION:]], -1)
+        return probs * (pieces != PAD)[..., None]
+
+    def step(self, code: Tensor, tokens: Tensor, feats: Tensor, centres: Tensor,
+             previous: Tensor, mask: Tensor) -> StepOutput:
+        # filter[r, t, n]: log-probability that word t's concept holds of object n
+        logit = torch.einsum("rtd,rnd->rtn", self.concept(tokens), feats)
+        logit = logit + self.concept_bias(tokens) + self.previous(tokens) * previous[:, None]
+        log_filter = F.logsigmoid(logit)
+        offsets = (centres[:, :, None] - centres[:, None]) / _OFFSET_SCALE  # (R, N, N, 3)
+        eye = torch.eye(mask.shape[1], dtype=torch.bool, device=mask.device)
+        others = mask[:, None, :] & ~eye[None]
+        out = []
+        for head, rel, anchor in _REFS:
+            score = torch.einsum("rt,rtn->rn", code[..., head], log_filter)
+            anchor_lp = _masked_log_softmax(
+                torch.einsum("rt,rtn->rn", code[..., anchor], log_filter), mask)
+            weights = torch.einsum("rt,rtk->rk", code[..., rel], self.relation(tokens))
+            bias = torch.einsum("rt,rtk->rk", code[..., rel], self.relation_bias(tokens))
+            pair = F.logsigmoid(torch.einsum("rijk,rk->rij", offsets, weights) + bias[..., None])
+            pair = pair + anchor_lp[:, None, :]
+            related = torch.logsumexp(pair.masked_fill(~others, float("-inf")), -1)
+            score = score + torch.nan_to_num(related, neginf=0.0)
+            out.append(_masked_log_softmax(score, mask))
+        action = torch.log_softmax(
+            torch.einsum("rt,rtk->rk", code[..., _ACTION], self.action(tokens)), -1)
+        return out[0], out[1], action
+
+
+def _masked_log_softmax(x: Tensor, mask: Tensor) -> Tensor:
+    return torch.log_softmax(x.masked_fill(~mask, float("-inf")), -1)

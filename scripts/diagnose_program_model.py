@@ -1,0 +1,139 @@
+"""The oracle ladder of a program model, through the public scorer.
+
+    python scripts/diagnose_program_model.py --model nsrm-v2 --data DATA/paper-v2/test \
+        [--checkpoint best.pt] [--limit N] [--out DIR]
+
+Each rung replaces one more part of the model by the gold answer and scores the
+predictions file it writes with ``nsrmp-bench score``: the model as is; + gold split
+(the steps cut where the instruction's steps meet); + gold action; + gold grounding
+(each step's subject and base); the last rung is then the gold program run through the
+model's action rule (a simulator check). It prints IoU-M (with single-step and
+multi-step IoU-M), program exact and subject (all steps), as the diagnosis does
+(``shared/reference/nsrm-v1-diagnosis.md``). Works for any program model on the shared
+parts (``nsrm-v2``, ``nmn-v2``).
+
+The gold parts are read from the episodes' targets (program, lexed instruction) and the
+connectors of the templates; the model never sees them: this is measurement only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from nsrmp_bench.cli.main import main as cli
+from nsrmp_bench.reference_model.program.data import part_camera, read_items
+from nsrmp_bench.reference_model.program.inference import Oracle
+from nsrmp_bench.reference_model.registry import load_model
+from nsrmp_bench.reference_model.tokens import tokenise
+from nsrmp_bench.storage.split_root import resolve_part
+
+_PLACEHOLDER = re.compile(r"<([SR])(\d+)>")
+
+
+def _connectors() -> list[str]:
+    from importlib import resources
+
+    syn = json.loads(resources.files("nsrmp_bench.generators").joinpath(
+        "templates", "synonyms.json").read_text("utf-8"))
+    words = [*syn["connectors"]["values"], *syn["connectors"]["held_out"],
+             *syn["final_connectors"]["values"], *syn["final_connectors"]["held_out"]]
+    return sorted(words, key=len, reverse=True)
+
+
+def gold_cuts(text: str, lexed: str, steps: int, connectors: list[str]) -> list[int]:
+    """Token positions where steps 2.. start: at the connector between step k-1's last
+    reference and step k's first."""
+    marks = list(_PLACEHOLDER.finditer(lexed))
+    pattern = ""
+    pos = 0
+    for m in marks:
+        pattern += re.escape(lexed[pos : m.start()]) + "(.+?)"
+        pos = m.end()
+    pattern += re.escape(lexed[pos:]) + "$"
+    found = re.match(pattern, text, flags=re.IGNORECASE | re.DOTALL)
+    if found is None:
+        return []
+    cuts = []
+    for k in range(2, steps + 1):
+        before = [i for i, m in enumerate(marks) if int(m.group(2)) == k - 1]
+        after = [i for i, m in enumerate(marks) if int(m.group(2)) == k]
+        if not before or not after:
+            continue
+        lo, hi = marks[max(before)].end(), marks[min(after)].start()
+        region = lexed[lo:hi]
+        hits = [(region.lower().find(c.lower()), -len(c)) for c in connectors
+                if region.lower().find(c.lower()) >= 0]
+        if not hits:
+            continue
+        # the text between the two references is the lexed region itself
+        text_at = found.end(max(before) + 1) + min(hits)[0]
+        cuts.append(len(tokenise(text[:text_at])))
+    return cuts
+
+
+def _score(pred: Path, data: Path, tmp: Path) -> dict[str, Any]:
+    out = tmp / (pred.stem + ".json")
+    cli(["score", str(pred), "--data", str(data), "--json", str(out), "--quiet",
+         "--n-boot", "0"])
+    return dict(json.loads(out.read_text("utf-8")))
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--model", default="nsrm-v2")
+    ap.add_argument("--data", type=Path, required=True)
+    ap.add_argument("--checkpoint", type=Path)
+    ap.add_argument("--limit", type=int)
+    ap.add_argument("--out", type=Path)
+    args = ap.parse_args()
+    from nsrmp_bench.reference_model.predictions import write_model_predictions
+
+    part = resolve_part(args.data)
+    model = load_model(args.model, args.checkpoint)
+    items, ds = read_items(part)
+    camera = part_camera(part)
+    split = ds.collection.split
+    connectors = _connectors()
+    cuts, actions, grounding = [], [], []
+    for i, it in enumerate(items):
+        tg = it["targets"]
+        g = tg["grounded"].tolist()
+        actions.append([a for a, _, _ in g])
+        grounding.append([(s, r) for _, s, r in g])
+        ep = ds.collection.episode(i, images=False)
+        cuts.append(gold_cuts(it["inputs"]["instruction"], ep.symbolic.instruction.lexed,
+                              len(g), connectors))
+    rungs = [
+        ("model as is", Oracle()),
+        ("+ gold split", Oracle(cuts=cuts)),
+        ("+ gold action", Oracle(cuts=cuts, actions=actions)),
+        ("+ gold grounding (= gold program, model's action rule)",
+         Oracle(cuts=cuts, actions=actions, grounding=grounding)),
+    ]
+    out_dir = args.out or Path(tempfile.mkdtemp(prefix="ladder-"))
+    out_dir.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for i, (name, oracle) in enumerate(rungs):
+        pred = out_dir / f"rung{i}.jsonl"
+        write_model_predictions(pred, split, model.model_id,
+                                model.predict(items, camera, oracle), {"rung": name})
+        s = _score(pred, part, out_dir)
+        summ = s["summary"]
+        rows.append((name, summ["iou_m"]["value"], summ["program_exact"]["value"],
+                     summ["subject_all_steps"]["value"], summ["success_3d"]["value"]))
+    print(f"oracle ladder of {model.model_id} on {split} ({len(items)} episodes), public scorer")
+    print("| # | rung | IoU-M | program exact | subject (all steps) | success 3D |")
+    print("|---|---|---|---|---|---|")
+    for i, (name, iou, prog, subj, s3d) in enumerate(rows):
+        print(f"| {i} | {name} | {iou:.3f} | {prog:.3f} | {subj:.3f} | {s3d:.3f} |")
+    print(f"files: {out_dir}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
