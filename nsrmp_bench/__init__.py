@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # type checkers see the real signature; at run time it is lazy
+    from nsrmp_bench.reference_model.registry import load_model as load_model
     from nsrmp_bench.scoring.scorer import score as score
     from nsrmp_bench.storage.reader import open as open
 

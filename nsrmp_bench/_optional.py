@@ -16,7 +16,7 @@ from types import ModuleType
 
 from nsrmp_bench.errors import MissingExtra
 
-__all__ = ["require"]
+__all__ = ["missing_extra", "require"]
 
 _EXTRA_OF: dict[str, str] = {
     "pybullet": "sim",
@@ -60,6 +60,24 @@ def _import_silently(module: str) -> ModuleType:
         os.close(null)
 
 
+def _message(top: str) -> str:
+    extra = _EXTRA_OF.get(top, "all")
+    return (f"this feature needs the optional package {top!r}, which is not installed; "
+            f"install it with: pip install 'nsrmp-bench[{extra}]'")
+
+
+def missing_extra(exc: ImportError) -> MissingExtra | None:
+    """The :class:`MissingExtra` an import error of an optional package means (the one-line
+    message the command line prints), or None for any other import error."""
+    if isinstance(exc, MissingExtra):
+        return exc
+    name = getattr(exc, "name", None)
+    top = name.split(".")[0] if name else ""
+    if top in _EXTRA_OF:
+        return MissingExtra(_message(top))
+    return None
+
+
 def require(module: str) -> ModuleType:
     """Import ``module`` or raise :class:`MissingExtra` naming the extra that provides it."""
     try:
@@ -67,10 +85,4 @@ def require(module: str) -> ModuleType:
             return _import_silently(module)
         return importlib.import_module(module)
     except ImportError as exc:
-        top = module.split(".")[0]
-        extra = _EXTRA_OF.get(top, "all")
-        msg = (
-            f"this feature needs the optional package {top!r}, which is not installed; "
-            f"install it with: pip install 'nsrmp-bench[{extra}]'"
-        )
-        raise MissingExtra(msg) from exc
+        raise MissingExtra(_message(module.split(".")[0])) from exc

@@ -14,11 +14,11 @@ measures, across every part of every split given:
 
 from __future__ import annotations
 
-import importlib
 import re
 from collections import defaultdict
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 from nsrmp_bench.canonical import content_hash
 from nsrmp_bench.episode import SymbolicEpisode
@@ -49,22 +49,22 @@ class AuditReport:
         return out
 
 
-def _held_out_words() -> set[str]:
-    # the template data ships with the package; imported by name (generators sit
-    # downstream of the core, so the core never imports them statically)
-    language = importlib.import_module("nsrmp_bench.generators.templates").load_language()
+def held_out_words(language: Any) -> set[str]:
+    """The held-out words and connectors of a template language (the generators'
+    ``load_language()``; the caller passes it, as the core never imports the generators)."""
     words = {w for c in language.words.values() for w in c.held_out}
     words |= {w.strip(" .,").lower() for w in language.connectors.held_out}
     words |= {w.strip(" .,").lower() for w in language.final_connectors.held_out}
     return words
 
 
-def audit(episodes: Iterable[tuple[str, str, SymbolicEpisode]]) -> AuditReport:
+def audit(episodes: Iterable[tuple[str, str, SymbolicEpisode]],
+          held_out: set[str]) -> AuditReport:
     """Audit ``(split_id, part, episode)`` triples."""
     report = AuditReport()
     owners: dict[str, dict[str, set[str]]] = defaultdict(lambda: defaultdict(set))
     entropies: dict[int, set[str]] = defaultdict(set)
-    held_words = sorted(_held_out_words(), key=len, reverse=True)
+    held_words = sorted(held_out, key=len, reverse=True)
     word_re = re.compile(r"\b(" + "|".join(re.escape(w) for w in held_words) + r")\b")
     counts: dict[str, int] = defaultdict(int)
     pair_shown = pair_missing = lang_leak = lang_missing = word_leak = 0

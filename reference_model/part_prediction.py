@@ -15,10 +15,13 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage.split_root import resolve_part
+
+if TYPE_CHECKING:
+    from nsrmp_bench.reference_model.base import PredictionModel
 
 __all__ = ["predict_part", "with_detected_boxes"]
 
@@ -65,16 +68,12 @@ def predict_part(model_name: str, data: Path, out: Path,
     """
     from nsrmp_bench.dataset import EpisodeDataset
     from nsrmp_bench.reference_model.predictions import write_model_predictions
-    from nsrmp_bench.reference_model.registry import load_model
+    from nsrmp_bench.reference_model.registry import load_predictor
 
     if not data.exists():
         msg = f"--data {data} does not exist; pass a split part's data directory"
         raise InvalidArgument(msg)
-    model = load_model(model_name, checkpoint)
-    if not hasattr(model, "predict"):
-        msg = (f"{model.model_id} makes images, not a predictions file; run it over one "
-               "with `nsrmp-bench reconstruct P.jsonl --data DATA --out DIR`")
-        raise InvalidArgument(msg)
+    model = load_predictor(model_name, checkpoint)
     ds = EpisodeDataset(resolve_part(data))
     items = [ds[i] for i in range(len(ds))]
     first = ds.collection.episode(0, images=False).rendering
@@ -96,7 +95,7 @@ def predict_part(model_name: str, data: Path, out: Path,
     return model_id, written, len(items)
 
 
-def _on_detections(model: Any, items: list[dict[str, Any]], detected: dict[str, Any],
+def _on_detections(model: PredictionModel, items: list[dict[str, Any]], detected: dict[str, Any],
                    camera: Any) -> Iterator[Any]:
     """The model's predictions with their detections; a scene with nothing detected gets
     an empty prediction (no objects, no steps) without running the model."""

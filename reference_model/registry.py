@@ -1,88 +1,107 @@
-"""The learned models by id (``name-vN``): how to train one and how to load one.
+"""The learned models by id (``name-vN``): one :class:`ModelEntry` each.
 
-Adding a model is adding a sub-package and one entry here. Everything imports lazily, so
-listing the models needs no torch.
+Adding a model is adding its sub-package (a :class:`~.base.LearnedModel` subclass with its
+config, network, loss and inference) and one entry here (or, outside the package,
+:func:`register`). An entry names the model's class as ``module:Class`` and everything
+imports lazily, so listing the models and their kinds needs no torch.
 """
 
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
+from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.reference_model.contract import Kind
 from nsrmp_bench.versioned_ids import resolve_id
 
-__all__ = ["MODELS", "ModelEntry", "get_model", "load_model"]
+if TYPE_CHECKING:
+    from nsrmp_bench.reference_model.base import LearnedModel, PredictionModel
+    from nsrmp_bench.reference_model.contract import ModelConfig
 
+__all__ = ["MODELS", "ModelEntry", "get_model", "load_model", "load_predictor", "register"]
 
 @dataclass(frozen=True)
 class ModelEntry:
     """A registered learned model."""
 
     id: str
+    kind: Kind
     description: str
-    module: str  # sub-package with train_<name>(...) and a <Name>Predictor class
-    trainer: str
-    predictor: str
-    config: str  # the config dataclass in ``module`` (``train --set`` overrides its fields)
+    model: str  # its LearnedModel subclass, "package.module:Class"
     label: str = ""  # said beside the id wherever its results are shown (e.g. "not CLIPort")
 
-    def train_fn(self) -> Callable[..., Path]:
-        """The training entry point."""
-        fn: Callable[..., Path] = getattr(importlib.import_module(self.module), self.trainer)
-        return fn
+    def model_cls(self) -> type[LearnedModel]:
+        """The model's class (imports it: needs torch)."""
+        from nsrmp_bench._optional import require
+        from nsrmp_bench.reference_model.base import LearnedModel
 
-    def config_cls(self) -> Callable[[], Any]:
+        require("torch")
+        module, _, name = self.model.partition(":")
+        cls = getattr(importlib.import_module(module), name)
+        if not (isinstance(cls, type) and issubclass(cls, LearnedModel)):
+            msg = f"{self.model} is not a LearnedModel subclass (model {self.id})"
+            raise TypeError(msg)
+        if cls.model_id != self.id or cls.kind is not self.kind:
+            msg = (f"{self.model} says it is {cls.model_id} ({cls.kind.value}) but is "
+                   f"registered as {self.id} ({self.kind.value})")
+            raise TypeError(msg)
+        return cls
+
+    def config_cls(self) -> type[ModelConfig]:
         """The model's config dataclass (its defaults are the shipped run's settings)."""
-        cls: Callable[[], Any] = getattr(importlib.import_module(self.module), self.config)
-        return cls
+        return self.model_cls().config_cls
 
-    def predictor_cls(self) -> Callable[[Path], Any]:
-        """The class that loads a checkpoint and predicts."""
-        cls: Callable[[Path], Any] = getattr(importlib.import_module(self.module),
-                                             self.predictor)
-        return cls
+    @property
+    def name(self) -> str:
+        """The id without its version (``nsrm`` of ``nsrm-v1``)."""
+        return self.id.rsplit("-v", 1)[0]
 
 
-MODELS: dict[str, ModelEntry] = {
-    m.id: m
-    for m in (
-        ModelEntry("nsrm-v1", "neuro-symbolic reference model (gold boxes), learnt from "
-                   "initial and final scenes", "nsrmp_bench.reference_model.nsrm",
-                   "train_nsrm", "NSRMPredictor", "NSRMConfig"),
-        ModelEntry("reconstruction-v1", "scene reconstruction: the image after each "
-                   "predicted step from the image before it and the moved boxes (U-Net)",
-                   "nsrmp_bench.reference_model.reconstruction", "train_reconstruction",
-                   "ReconstructionPredictor", "ReconstructionConfig"),
-        ModelEntry("dense-v1", "dense baseline, not CLIPort: a from-scratch two-stream FCN "
-                   "from RGB-D and the instruction to pick and place heatmaps, trained on "
-                   "paper-v2/train's single-step episodes", "nsrmp_bench.reference_model.dense",
-                   "train_dense", "DensePredictor", "DenseConfig", "not CLIPort"),
-        ModelEntry("dense5x-v1", "dense baseline, not CLIPort, on 5x the data "
-                   "(dense5x-v2/train, selected on paper-v2/val)",
-                   "nsrmp_bench.reference_model.dense", "train_dense5x", "Dense5xPredictor",
-                   "Dense5xConfig", "not CLIPort, 5x data"),
-        ModelEntry("detector-v1", "CenterNet-style object detector (RGB and height above the "
-                   "table), from scratch; writes detections, not predictions",
-                   "nsrmp_bench.reference_model.detector", "train_detector",
-                   "DetectorPredictor", "DetectorConfig"),
-        ModelEntry("nmn-v1", "NMN+ attention baseline (gold boxes, box coordinates in the "
-                   "object features), learnt from initial and final scenes",
-                   "nsrmp_bench.reference_model.nmn", "train_nmn", "NMNPredictor",
-                   "NMNConfig"),
-        ModelEntry("nsrm-v2", "neuro-symbolic reference model v2 (gold boxes): words as "
-                   "concepts, a role parser, relations on the current state, a splitter "
-                   "and a 3D action rule, learnt from initial and final boxes",
-                   "nsrmp_bench.reference_model.nsrm2", "train_nsrm2", "NSRM2Predictor",
-                   "NSRM2Config"),
-        ModelEntry("nmn-v2", "NMN+ attention baseline v2 (gold boxes) on NSRM v2's "
-                   "perception, splitter, action rule and training: attention in place of "
-                   "the program", "nsrmp_bench.reference_model.nmn2", "train_nmn2",
-                   "NMN2Predictor", "NMN2Config"),
-    )
-}
+MODELS: dict[str, ModelEntry] = {}
+
+
+def register(entry: ModelEntry) -> ModelEntry:
+    """Add ``entry`` to :data:`MODELS` (an id registered twice is an error)."""
+    if entry.id in MODELS and MODELS[entry.id] != entry:
+        msg = f"model id {entry.id!r} is registered already; give the new model a new id"
+        raise InvalidArgument(msg)
+    MODELS[entry.id] = entry
+    return entry
+
+
+_HERE = "nsrmp_bench.reference_model"
+
+for _entry in (
+    ModelEntry("nsrm-v1", Kind.PROGRAM, "neuro-symbolic reference model (gold boxes), learnt "
+               "from initial and final scenes", f"{_HERE}.nsrm:NSRMPredictor"),
+    ModelEntry("reconstruction-v1", Kind.RECONSTRUCTION, "scene reconstruction: the image "
+               "after each predicted step from the image before it and the moved boxes "
+               "(U-Net)", f"{_HERE}.reconstruction:ReconstructionPredictor"),
+    ModelEntry("dense-v1", Kind.DENSE, "dense baseline, not CLIPort: a from-scratch two-stream "
+               "FCN from RGB-D and the instruction to pick and place heatmaps, trained on "
+               "paper-v2/train's single-step episodes", f"{_HERE}.dense:DensePredictor",
+               "not CLIPort"),
+    ModelEntry("dense5x-v1", Kind.DENSE, "dense baseline, not CLIPort, on 5x the data "
+               "(dense5x-v2/train, selected on paper-v2/val)", f"{_HERE}.dense:Dense5xPredictor",
+               "not CLIPort, 5x data"),
+    ModelEntry("detector-v1", Kind.DETECTOR, "CenterNet-style object detector (RGB and height "
+               "above the table), from scratch; writes detections, not predictions",
+               f"{_HERE}.detector:DetectorPredictor"),
+    ModelEntry("nmn-v1", Kind.PROGRAM, "NMN+ attention baseline (gold boxes, box coordinates "
+               "in the object features), learnt from initial and final scenes",
+               f"{_HERE}.nmn:NMNPredictor"),
+    ModelEntry("nsrm-v2", Kind.PROGRAM, "neuro-symbolic reference model v2 (gold boxes): "
+               "words as concepts, a role parser, relations on the current state, a "
+               "splitter and a 3D action rule, learnt from initial and final boxes",
+               f"{_HERE}.nsrm2:NSRM2Model"),
+    ModelEntry("nmn-v2", Kind.PROGRAM, "NMN+ attention baseline v2 (gold boxes) on NSRM v2's "
+               "perception, splitter, action rule and training: attention in place of the "
+               "program", f"{_HERE}.nmn2:NMN2Model"),
+):
+    register(_entry)
 
 
 def get_model(name: str) -> ModelEntry:
@@ -90,10 +109,33 @@ def get_model(name: str) -> ModelEntry:
     return MODELS[resolve_id(name, MODELS, "model")]
 
 
-def load_model(name: str, checkpoint: str | Path | None = None) -> Any:
-    """A loaded model ready to predict: the shipped checkpoint unless one is given."""
+def load_model(name: str, checkpoint: str | Path | None = None) -> LearnedModel:
+    """A loaded model ready for inference: the shipped checkpoint unless one is given.
+
+    ``name`` is an id (``nsrm-v1``) or a bare name (``nsrm``, its latest version). What the
+    model runs depends on its ``kind``: program and dense models are
+    :class:`~.base.PredictionModel` (``predict(items, camera)``; see :func:`load_predictor`),
+    the detector has ``detect_part(data)``, the reconstruction network ``chain(...)``."""
     from nsrmp_bench.reference_model.checkpoints import shipped_checkpoint
 
     entry = get_model(name)
     path = Path(checkpoint) if checkpoint is not None else shipped_checkpoint(entry.id)
-    return entry.predictor_cls()(path)
+    return entry.model_cls().from_checkpoint(path)
+
+
+def load_predictor(name: str, checkpoint: str | Path | None = None) -> PredictionModel:
+    """:func:`load_model` for a model that writes predictions files (kind program or
+    dense); another kind is an :class:`InvalidArgument` saying which verb runs it."""
+    from nsrmp_bench.reference_model.base import PredictionModel
+
+    entry = get_model(name)
+    if not entry.kind.writes_predictions:
+        use = ("`nsrmp-bench detect --detector learned --data DATA --out D.jsonl`"
+               if entry.kind is Kind.DETECTOR else
+               "`nsrmp-bench reconstruct P.jsonl --data DATA --out DIR`")
+        msg = (f"{entry.id} is a {entry.kind.value} model: it writes no predictions file; "
+               f"run it with {use}")
+        raise InvalidArgument(msg)
+    model = load_model(name, checkpoint)
+    assert isinstance(model, PredictionModel)
+    return model

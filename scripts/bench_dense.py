@@ -20,6 +20,7 @@ import argparse
 import time
 from pathlib import Path
 
+from nsrmp_bench.cli.evaluate import runners
 from nsrmp_bench.engine import InlineEngine
 from nsrmp_bench.results.evaluate import evaluate
 from nsrmp_bench.results.model_cards import model_card
@@ -44,7 +45,7 @@ def main() -> None:
     t0 = time.perf_counter()
     with InlineEngine() as engine:
         results = evaluate(args.models, args.data_root, args.out, splits=args.splits,
-                           workers=1, engine=engine, say=print)
+                           workers=1, engine=engine, say=print, runners=runners())
     print(f"\nevaluated in {time.perf_counter() - t0:.0f} s\n")
     tables = render_markdown(results, paper=True)
     print(tables[tables.index(f"**{TABLE_II.title}**"):])

@@ -60,7 +60,7 @@ def throughput(detector: str, data: Path, n: int = 64) -> dict[str, float]:
         from nsrmp_bench.reference_model.detector import DetectorPredictor
         from nsrmp_bench.reference_model.detector.scenes import read_scenes
 
-        model = DetectorPredictor(shipped_checkpoint("detector-v1"))
+        model = DetectorPredictor.from_checkpoint(shipped_checkpoint("detector-v1"))
         scenes = read_scenes(data, targets=False, limit=n)
         model.detect(read_scenes(data, targets=False, limit=8))  # warm up
         t0, c0 = time.perf_counter(), time.process_time()

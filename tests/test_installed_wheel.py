@@ -33,6 +33,24 @@ print("ok")
 """
 
 
+CHECKPOINTS = """
+import importlib.util, sys
+from importlib import resources
+from pathlib import Path
+from nsrmp_bench.reference_model.registry import MODELS, load_model
+from nsrmp_bench.results.model_cards import read_training_card
+root = Path(str(resources.files("nsrmp_bench.reference_model").joinpath("checkpoints")))
+assert str(root).startswith(sys.argv[1]), root
+for mid in MODELS:
+    card = read_training_card(root / f"{mid}.card.json")
+    assert card.model == mid and card.parameters > 0, (mid, card)
+    if importlib.util.find_spec("torch") is not None:
+        model = load_model(mid)
+        assert model.model_id == mid and model.kind is MODELS[mid].kind, mid
+print(len(MODELS))
+"""
+
+
 def test_wheel_runs_outside_the_repo(tmp_path: Path) -> None:
     wheels = tmp_path / "wheels"
     subprocess.run(
@@ -64,3 +82,8 @@ def test_wheel_runs_outside_the_repo(tmp_path: Path) -> None:
     )
     assert cli.returncode == 0, cli.stderr
     assert '"instruction"' in cli.stdout
+    # every registered model's checkpoint and card ship, and load from the wheel
+    models = subprocess.run([sys.executable, "-c", CHECKPOINTS, str(target)], cwd=outside,
+                            env=env, capture_output=True, text=True)
+    assert models.returncode == 0, models.stderr
+    assert int(models.stdout.strip()) >= 6

@@ -30,7 +30,7 @@ from nsrmp_bench.generators.replay.episode import (
 from nsrmp_bench.generators.replay.plan import ReplayPlan
 from nsrmp_bench.generators.robot.profiles import get_profile
 from nsrmp_bench.generators.world.world import World
-from nsrmp_bench.scoring.projection import episode_camera, episode_initial_state
+from nsrmp_bench.geometry.projection import episode_camera, episode_initial_state
 from nsrmp_bench.scoring.submission import Prediction
 
 __all__ = ["ReplayOutcome", "ReplayTask", "replay_tasks"]

@@ -45,8 +45,8 @@ from nsrmp_bench.generators.robot.recorder import (
 from nsrmp_bench.generators.world.world import SettleResult, World
 from nsrmp_bench.geometry.boxes import box_centres
 from nsrmp_bench.geometry.camera import Camera
+from nsrmp_bench.geometry.projection import episode_camera, episode_initial_state
 from nsrmp_bench.scene import Pose, Scene, yaw_quaternion
-from nsrmp_bench.scoring.projection import episode_camera, episode_initial_state
 from nsrmp_bench.scoring.submission import Prediction
 from nsrmp_bench.vocabulary import TABLE_TOP_Z
 

@@ -18,8 +18,8 @@ from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import InfeasibleStep
 from nsrmp_bench.geometry.boxes import box_centres
+from nsrmp_bench.geometry.projection import episode_camera, episode_initial_state, states_boxes
 from nsrmp_bench.scene import Scene, State
-from nsrmp_bench.scoring.projection import episode_camera, episode_initial_state, states_boxes
 from nsrmp_bench.scoring.submission import Prediction
 
 __all__ = ["execute_leniently", "rollout_prediction"]

@@ -18,7 +18,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from nsrmp_bench.audit import audit
+from nsrmp_bench.audit import audit, held_out_words
 from nsrmp_bench.episode import SymbolicEpisode
 from nsrmp_bench.split_specs import list_splits, load_split
 
@@ -76,7 +76,9 @@ def run(args: argparse.Namespace) -> int:
             load_split(sid)
         source = _from_specs(ids)
         what = "symbolic regeneration of " + ", ".join(ids)
-    report = audit(source)
+    from nsrmp_bench.generators.templates import load_language
+
+    report = audit(source, held_out_words(load_language()))
     table = Table(title=f"audit ({what})")
     for col in ("section", "measure", "value"):
         table.add_column(col, justify="right" if col == "value" else "left")

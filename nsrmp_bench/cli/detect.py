@@ -38,8 +38,16 @@ def run(args: argparse.Namespace) -> int:
     """Detect and write the file."""
     from nsrmp_bench.detection.part_detection import detect_part
 
+    learned = None
+    if args.detector == "learned":
+        from nsrmp_bench._optional import require
+
+        require("torch")
+        from nsrmp_bench.reference_model.detector import detect_with
+
+        learned = detect_with
     det_id, out, count, seconds = detect_part(args.detector, args.data, args.out,
-                                              args.checkpoint)
+                                              args.checkpoint, learned)
     if not args.quiet:
         print(f"{det_id}: wrote {out} ({count} episodes in {seconds:.1f} s, "
               f"{count / max(seconds, 1e-9):.1f} images/s including reading)")

@@ -23,10 +23,14 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
-from nsrmp_bench.results.evaluate import evaluate
+from nsrmp_bench.results.evaluate import Runners, evaluate, resolve_source
 from nsrmp_bench.results.summary import Results
+
+if TYPE_CHECKING:
+    from nsrmp_bench.engine import Engine
 
 __all__ = ["add_arguments", "render_table", "run"]
 
@@ -71,12 +75,44 @@ def render_table(results: Results) -> None:
     Console().print(t)
 
 
+def _predict_part(model: str, data: Path, out: Path) -> object:
+    """A learned model over a part (imported in the task: a worker may be another process)."""
+    from nsrmp_bench.reference_model.part_prediction import predict_part
+
+    return predict_part(model, data, out)
+
+
+def _generate_part(split_id: str, part: str, out: Path, workers: int,
+                   engine: Engine | None) -> object:
+    from nsrmp_bench._optional import require
+    from nsrmp_bench.split_specs import load_split
+
+    require("pybullet")
+    from nsrmp_bench.generators.generate import generate_part
+
+    return generate_part(load_split(split_id), part, out, workers=workers, engine=engine)
+
+
+def runners() -> Runners:
+    """The learned models and the generator, for :func:`~nsrmp_bench.results.evaluate
+    .evaluate` (the core does not import them)."""
+    from nsrmp_bench.reference_model.registry import MODELS
+
+    return Runners(models=tuple(MODELS), predict=_predict_part, generate=_generate_part)
+
+
 def run(args: argparse.Namespace) -> int:
     """Evaluate, write the results folder, print the table."""
     say = None if args.quiet else print
+    run_with = runners()
+    if any(resolve_source(s, run_with.models).kind == "model" for s in args.sources):
+        from nsrmp_bench._optional import require
+
+        require("torch")  # before generating or scoring anything
     with engine_from_args(args) as engine:
         results = evaluate(args.sources, args.data_root, args.out, generate=args.generate,
-                           splits=args.splits, workers=args.workers, engine=engine, say=say)
+                           splits=args.splits, workers=args.workers, engine=engine, say=say,
+                           runners=run_with)
     if not args.quiet:
         render_table(results)
         print(f"wrote {args.out / 'summary.json'} and {len(results.splits)} CSV files")

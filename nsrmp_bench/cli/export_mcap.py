@@ -20,6 +20,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Export and print a one-line summary."""
+    from nsrmp_bench._optional import require
+
+    require("mcap")
     from nsrmp_bench.storage.mcap_export import export_mcap
 
     summary = export_mcap(args.data, args.out, episodes=args.episodes,

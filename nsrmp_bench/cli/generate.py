@@ -54,6 +54,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Generate, then print each part's count, time, rate, rejections and root hash."""
+    from nsrmp_bench._optional import require
+
+    require("pybullet")  # before any work, also of pool workers that would import it
     from nsrmp_bench.generators import generate as gen
 
     spec = load_split_file(args.spec) if args.spec is not None else resolve_split(args.split)

@@ -13,6 +13,7 @@ import sys
 from collections.abc import Sequence
 
 from nsrmp_bench import __version__
+from nsrmp_bench._optional import missing_extra
 from nsrmp_bench.errors import NSRMPError
 
 __all__ = ["VERBS", "main"]
@@ -66,21 +67,36 @@ def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _missing(verb: str, exc: ImportError) -> int:
+    """An optional package is not installed: its one-line message (any other import error
+    is a bug and propagates)."""
+    extra = missing_extra(exc)
+    if extra is None:
+        raise exc
+    print(f"nsrmp-bench {verb}: error: {extra}", file=sys.stderr)
+    return 2
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status."""
     args_list = list(sys.argv[1:] if argv is None else argv)
     verb = next((a for a in args_list if not a.startswith("-")), None)
-    parser = build_parser(verb if verb in VERBS else None)
+    try:
+        parser = build_parser(verb if verb in VERBS else None)
+    except ImportError as exc:  # a verb whose arguments need an optional package
+        return _missing(str(verb), exc)
     args = parser.parse_args(args_list)
     if args.verb is None:
         parser.print_help()
         return 0
-    module = importlib.import_module(_module_name(args.verb))
     try:
+        module = importlib.import_module(_module_name(args.verb))
         status: int = module.run(args)
     except NSRMPError as exc:
         print(f"nsrmp-bench {args.verb}: error: {exc}", file=sys.stderr)
         return 2
+    except ImportError as exc:
+        return _missing(args.verb, exc)
     except KeyboardInterrupt:
         print(f"nsrmp-bench {args.verb}: interrupted", file=sys.stderr)
         return 130

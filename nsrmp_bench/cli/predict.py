@@ -40,6 +40,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Predict every episode of the part and write the file."""
+    from nsrmp_bench._optional import require
+
+    require("torch")
     from nsrmp_bench.reference_model.part_prediction import predict_part
 
     t0 = time.perf_counter()

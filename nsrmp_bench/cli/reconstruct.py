@@ -36,11 +36,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Reconstruct, score, print the table and where the files went."""
+    from nsrmp_bench._optional import require
+
+    sim_renderer = None
+    if args.renderer == "sim":
+        require("pybullet")
+        from nsrmp_bench.generators.world.sim_renderer import SimRenderer
+
+        sim_renderer = SimRenderer
+    else:
+        require("torch")
+    require("skimage")
     from nsrmp_bench.reference_model.reconstruction.reconstruct import reconstruct_file, table
 
     result = reconstruct_file(args.predictions, args.data, args.out, renderer=args.renderer,
                               checkpoint=args.checkpoint, limit=args.limit,
-                              images=not args.no_images)
+                              images=not args.no_images, sim_renderer=sim_renderer)
     print(table(result))
     rate = result["images"] / max(result["seconds"], 1e-9)
     print(f"wrote {args.out / 'ssim.json'}"

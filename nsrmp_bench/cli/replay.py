@@ -103,6 +103,9 @@ def _tasks(episodes: list[Any], gold: GoldTable, table: PredictionTable,
 
 def run(args: argparse.Namespace) -> int:
     """Replay, write the achieved predictions, report."""
+    from nsrmp_bench._optional import require
+
+    require("pybullet")
     if args.limit is not None and args.limit < 0:
         msg = f"--limit must be >= 0, got {args.limit}"
         raise InvalidArgument(msg)

@@ -8,20 +8,17 @@ Trains on ``DATA/train``, selects on ``DATA/val``, shows a progress bar per curr
 (loss, validation IoU-M, time left) and writes into ``--out``: ``best.pt`` (the selected
 checkpoint), ``last.pt`` (to resume from: rerunning the same command continues an
 interrupted run), ``config.json``, ``log.jsonl`` (one line per epoch) and ``card.json``
-(the model card). ``--set key=value`` overrides a config field (e.g. for a short run).
+(the model card). ``--set key=value`` overrides a config field (e.g. for a short run),
+parsed by the field's type. Rerunning into the same ``--out`` resumes; with another config
+it is refused before anything is written (``--out`` elsewhere, or ``--restart``).
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
 
 from nsrmp_bench.errors import InvalidArgument
-
-if TYPE_CHECKING:
-    from nsrmp_bench.reference_model.registry import ModelEntry
 
 __all__ = ["add_arguments", "run"]
 
@@ -34,49 +31,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, type=Path, help="run directory to write")
     parser.add_argument("--seed", type=int, default=0, help="seed (default 0)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="override a config field (repeatable), e.g. epochs_attribute=2")
+                        help="override a config field (repeatable), parsed by the field's "
+                        "type, e.g. epochs_attribute=2, lr=1e-3, flag=false, limit=none")
+    parser.add_argument("--restart", action="store_true",
+                        help="start the run in --out over (deletes its checkpoints, log and "
+                        "card) instead of resuming it")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
-
-
-def _config(entry: ModelEntry, overrides: list[str]) -> Any:
-    entry_id = entry.id
-    cfg = entry.config_cls()()
-    fields = {f.name: f for f in dataclasses.fields(cfg)}
-    changes: dict[str, Any] = {}
-    for item in overrides:
-        key, sep, value = item.partition("=")
-        if not sep or key not in fields:
-            msg = (f"--set {item!r} is not KEY=VALUE with a field of {entry_id}'s config; "
-                   f"fields: {', '.join(fields)}")
-            raise InvalidArgument(msg)
-        kind = type(getattr(cfg, key))
-        try:
-            changes[key] = kind(value)
-        except ValueError as exc:
-            msg = f"--set {item!r}: {value!r} is not a {kind.__name__}"
-            raise InvalidArgument(msg) from exc
-    return dataclasses.replace(cfg, **changes)
 
 
 def run(args: argparse.Namespace) -> int:
     """Train and report where the checkpoint is."""
+    from nsrmp_bench._optional import require
     from nsrmp_bench.reference_model import registry
 
     entry = registry.get_model(args.model)
     if args.seed < 0:
         msg = f"--seed must be a non-negative integer, got {args.seed}"
         raise InvalidArgument(msg)
-    cfg = _config(entry, args.set)
-    best = entry.train_fn()(args.data, args.out, seed=args.seed, config=cfg, quiet=args.quiet)
-    name = entry.id.rsplit("-v", 1)[0]
-    if entry.id.startswith("detector-"):  # a detector writes detections, not predictions
-        use = (f"nsrmp-bench detect --data {args.data / 'test'} --out D.jsonl "
-               f"--checkpoint {best}")
-    elif hasattr(entry.predictor_cls(), "predict"):
-        use = (f"nsrmp-bench predict {name} --data {args.data / 'test'} --out P.jsonl "
-               f"--checkpoint {best}")
-    else:  # an image model (reconstruction): it runs over a predictions file
-        use = (f"nsrmp-bench reconstruct P.jsonl --data {args.data / 'test'} --out DIR "
-               f"--checkpoint {best}")
+    require("torch")
+    model = entry.model_cls()
+    cfg = model.config_cls().with_overrides(args.set, entry.id)
+    best = model.train(args.data, args.out, seed=args.seed, config=cfg, quiet=args.quiet,
+                       restart=args.restart)
+    use = entry.kind.use_after_training(entry.name, str(args.data / "test"), str(best))
     print(f"{entry.id}: best checkpoint {best}; use it with: {use}")
     return 0

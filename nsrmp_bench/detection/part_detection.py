@@ -7,7 +7,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from nsrmp_bench.detection.classical import CLASSICAL_ID, classical_detect
@@ -38,12 +38,19 @@ def _classical(data: Path) -> Iterator[Detections]:
         yield classical_detect(str(inp["id"]), inp["rgb"], inp["depth"], first.camera)
 
 
-def detect_part(detector: str, data: Path, out: Path, checkpoint: Path | None = None
-                ) -> tuple[str, Path, int, float]:
+LearnedDetector = Callable[[Path, "Path | None"],
+                           tuple[str, Iterator[Detections], dict[str, object]]]
+"""Runs the learned detector over a part: (part, checkpoint or None for the shipped one)
+to (detector id, detections, header extras). The core does not import the learned models:
+the caller passes it (the command line passes ``reference_model.detector.detect_with``)."""
+
+
+def detect_part(detector: str, data: Path, out: Path, checkpoint: Path | None = None,
+                learned: LearnedDetector | None = None) -> tuple[str, Path, int, float]:
     """Detect the initial objects of every episode of ``data`` into ``out``.
 
     Returns the detector id, the file, the number of episodes and the seconds spent
-    detecting (reading the images included).
+    detecting (reading the images included). ``detector="learned"`` runs ``learned``.
     """
     if detector not in DETECTORS:
         msg = f"--detector {detector!r} is not one of {list(DETECTORS)}"
@@ -58,13 +65,11 @@ def detect_part(detector: str, data: Path, out: Path, checkpoint: Path | None = 
     extra: dict[str, object] = {}
     t0 = time.perf_counter()
     if detector == "learned":
-        from nsrmp_bench.reference_model.checkpoints import shipped_checkpoint
-        from nsrmp_bench.reference_model.detector import MODEL_ID, DetectorPredictor
-
-        path = checkpoint if checkpoint is not None else shipped_checkpoint(MODEL_ID)
-        model = DetectorPredictor(path)
-        dets = list(model.detect_part(part))
-        det_id, extra = MODEL_ID, {"checkpoint": path.name}
+        if learned is None:
+            msg = "the learned detector is not given: pass learned=... (the CLI does)"
+            raise InvalidArgument(msg)
+        det_id, found, extra = learned(part, checkpoint)
+        dets = list(found)
     else:
         if checkpoint is not None:
             msg = "--checkpoint is for the learned detector; the classical one has none"

@@ -16,7 +16,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["box_area", "box_centres", "box_intersection", "box_iou", "points_in_boxes"]
+__all__ = ["MOVE_TOLERANCE", "box_area", "box_centres", "box_intersection", "box_iou",
+           "moved_objects", "points_in_boxes"]
+
+MOVE_TOLERANCE = 1.0
+"""Pixels: an object moved in a step when a corner of its box moved by more than this."""
 
 F64 = NDArray[np.float64]
 
@@ -76,3 +80,11 @@ def points_in_boxes(points: NDArray[Any], boxes: NDArray[Any]) -> NDArray[np.boo
         & (p[..., 1] <= b[..., 3])
     )
     return inside
+
+
+def moved_objects(before: NDArray[Any], after: NDArray[Any],
+                  tol: float = MOVE_TOLERANCE) -> NDArray[np.int64]:
+    """Indices of the objects whose box (``(N, 4)`` xyxy) changed by more than ``tol``."""
+    diff = np.abs(np.asarray(after, np.float64) - np.asarray(before, np.float64)).max(axis=1)
+    out: NDArray[np.int64] = np.nonzero(diff > tol)[0].astype(np.int64)
+    return out

@@ -25,11 +25,9 @@ import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
 
-from nsrmp_bench._optional import require
 from nsrmp_bench.baselines.registry import BASELINES, run_baseline
 from nsrmp_bench.engine import Engine, InlineEngine, TaskReport, in_task_order
 from nsrmp_bench.errors import InvalidArgument, UnknownId
@@ -42,8 +40,8 @@ from nsrmp_bench.split_specs import OFFICIAL_SPLITS, list_splits, load_split
 from nsrmp_bench.storage.split_root import find_part
 
 __all__ = [
-    "Job", "Source", "evaluate", "evaluate_job", "find_part", "long_table",
-    "official_test_parts", "resolve_source",
+    "GeneratePart", "Job", "PredictPart", "Runners", "Source", "evaluate", "evaluate_job",
+    "find_part", "long_table", "official_test_parts", "resolve_source",
 ]
 
 Say = Callable[[str], None]
@@ -58,14 +56,25 @@ class Source:
     path: Path | None = None
 
 
-def _learned_models() -> dict[str, Any]:
-    from nsrmp_bench.reference_model.registry import MODELS
+PredictPart = Callable[[str, Path, Path], object]
+"""Runs a learned model over a part into a predictions file: (model id, data, out)."""
+GeneratePart = Callable[[str, str, Path, int, "Engine | None"], object]
+"""Generates a split's part: (split id, part, out, workers, engine)."""
 
-    return dict(MODELS)
+
+@dataclass(frozen=True)
+class Runners:
+    """What the core does not import but an evaluation may run, passed in by the caller
+    (the command line): the learned models' ids and how to run one, and the generator."""
+
+    models: tuple[str, ...] = ()
+    predict: PredictPart | None = None
+    generate: GeneratePart | None = None
 
 
-def resolve_source(text: str) -> Source:
-    """A model id, a baseline id or a predictions file; anything else names all three."""
+def resolve_source(text: str, models: Sequence[str] = ()) -> Source:
+    """A model id (of ``models``), a baseline id or a predictions file; anything else names
+    all three."""
     path = Path(text)
     if path.suffix in {".jsonl", ".parquet"} or path.exists():
         if not path.is_file():
@@ -75,8 +84,8 @@ def resolve_source(text: str) -> Source:
         return Source("file", path.name, path)
     from nsrmp_bench.versioned_ids import resolve_id
 
-    models = _learned_models()
-    for kind, known in (("baseline", BASELINES), ("model", models)):
+    known_models = {m: m for m in models}
+    for kind, known in (("baseline", BASELINES), ("model", known_models)):
         try:
             return Source(kind, resolve_id(text, known, kind))
         except UnknownId:
@@ -107,14 +116,15 @@ def _wanted_parts(splits: Sequence[str] | None) -> list[str]:
 
 
 def _generate(root: Path, split_part: str, workers: int, engine: Engine | None,
-              say: Say) -> Path:
-    require("pybullet")
-    from nsrmp_bench.generators.generate import generate_part
-
+              say: Say, generate: GeneratePart | None) -> Path:
+    if generate is None:
+        msg = "generate=True needs the generator: pass Runners(generate=...) (the CLI does)"
+        raise InvalidArgument(msg)
     split_id, part = split_part.split("/", 1)
+    load_split(split_id)
     out = root / split_id / part
     say(f"generating {split_part} into {out} ...")
-    generate_part(load_split(split_id), part, out, workers=workers, engine=engine)
+    generate(split_id, part, out, workers, engine)
     return out
 
 
@@ -152,17 +162,21 @@ def evaluate(
     workers: int = 2,
     engine: Engine | None = None,
     say: Say | None = None,
+    runners: Runners | None = None,
 ) -> Results:
     """Score every source on its parts; write ``summary.json`` and the CSVs into ``out``.
 
     ``splits`` (split ids) narrows the official test parts that models and baselines run on
     and that ``generate`` makes; predictions files are scored on their own part regardless.
     Each (source, part) run is one task for ``engine`` (entered by the caller; default:
-    this process, and ``generate`` then uses a local pool of ``workers``).
+    this process, and ``generate`` then uses a local pool of ``workers``). ``runners``
+    brings what the core does not import: the learned models and the generator.
     """
+    run_with = runners if runners is not None else Runners()
     tell: Say = say if say is not None else (lambda _line: None)
     root, folder = Path(data_root).resolve(), Path(out).resolve()
-    resolved = [s if isinstance(s, Source) else resolve_source(s) for s in sources]
+    resolved = [s if isinstance(s, Source) else resolve_source(s, run_with.models)
+                for s in sources]
     if not resolved:
         msg = "nothing to evaluate: pass model ids, baseline ids or predictions files"
         raise InvalidArgument(msg)
@@ -172,12 +186,14 @@ def evaluate(
         raise InvalidArgument(msg)
     parts = {p: find_part(root, p) for p in _wanted_parts(splits)}
     if generate:
-        parts = {p: d if d is not None else _generate(root, p, workers, engine, tell)
+        parts = {p: d if d is not None else _generate(root, p, workers, engine, tell,
+                                                             run_with.generate)
                  for p, d in parts.items()}
     found = {p: d for p, d in parts.items() if d is not None}
     (folder / "predictions").mkdir(parents=True, exist_ok=True)
 
-    jobs = [job for source in resolved for job in _jobs(source, found, root, folder)]
+    jobs = [job for source in resolved
+            for job in _jobs(source, found, root, folder, run_with.predict)]
     runs: list[Run] = []
     tables: dict[str, list[pd.DataFrame]] = {}
     with contextlib.ExitStack() as stack:
@@ -215,6 +231,7 @@ class Job:
     pred: Path
     model: str
     kind: str
+    predict: PredictPart | None = None  # runs a learned model (a module-level function)
 
 
 def evaluate_job(job: Job, folder: str, *,
@@ -228,9 +245,10 @@ def evaluate_job(job: Job, folder: str, *,
         episodes, recorded = load_episodes(job.data)
         run_baseline(source.name, episodes, job.pred, split=recorded or job.split_part)
     elif source.kind == "model":
-        from nsrmp_bench.reference_model.part_prediction import predict_part
-
-        predict_part(source.name, job.data, job.pred)
+        if job.predict is None:
+            msg = f"{source.name} is a learned model: pass Runners(predict=...) to run it"
+            raise InvalidArgument(msg)
+        job.predict(source.name, job.data, job.pred)
     result = score(job.pred, job.data, split=job.split_part)
     run = Run.from_score(result, model=job.model, kind=job.kind,
                          predictions=_relative(job.pred, Path(folder)))
@@ -241,7 +259,8 @@ def evaluate_job(job: Job, folder: str, *,
     return run, long_table(job.model, result), line
 
 
-def _jobs(source: Source, found: dict[str, Path], root: Path, folder: Path) -> list[Job]:
+def _jobs(source: Source, found: dict[str, Path], root: Path, folder: Path,
+          predict: PredictPart | None) -> list[Job]:
     """Every run of ``source``: a file on its own part, an id on every part found."""
     if source.kind == "file" and source.path is not None:
         split_part, model = _split_of_file(source.path)
@@ -258,4 +277,4 @@ def _jobs(source: Source, found: dict[str, Path], root: Path, folder: Path) -> l
         return []
     kind = "baseline" if source.kind == "baseline" else "reference"
     return [Job(source, p, d, folder / "predictions" / f"{_stem(p)}--{source.name}.jsonl",
-                source.name, kind) for p, d in found.items()]
+                source.name, kind, predict) for p, d in found.items()]

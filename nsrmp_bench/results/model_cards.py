@@ -12,14 +12,16 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, field
 from importlib import resources
+from pathlib import Path
 from typing import Any
 
 from nsrmp_bench.baselines.registry import BASELINES
 from nsrmp_bench.errors import InvalidArgument
 
-__all__ = ["CARD_FIELDS", "ModelCard", "model_card"]
+__all__ = ["CARD_FIELDS", "ModelCard", "TrainingCard", "model_card", "read_training_card",
+           "shipped_label", "write_training_card"]
 
 CARD_FIELDS = (
     ("training_data", "training data"),
@@ -42,6 +44,75 @@ class ModelCard:
     source: str
 
 
+@dataclass(frozen=True)
+class TrainingCard:
+    """The card a training run writes (``card.json`` beside ``best.pt``): one type for every
+    learned model, written by :func:`write_training_card` only."""
+
+    model: str
+    training_data: str
+    train_seconds: float
+    wall_seconds: float
+    parameters: int
+    seed: int
+    threads: int
+    supervision: str
+    inputs: str
+    score_name: str  # the validation score best.pt was selected on ("val IoU-M")
+    best_score: float
+    config: dict[str, Any] = field(default_factory=dict)
+    label: str = ""
+    read_seconds: float | None = None  # reading the data, when stated apart
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON object (``label`` and ``read_seconds`` only when stated)."""
+        data = asdict(self)
+        if not self.label:
+            del data["label"]
+        if self.read_seconds is None:
+            del data["read_seconds"]
+        return data
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> TrainingCard:
+        """A card from its JSON; the cards shipped before this type (``best_val_<score>``
+        and per-model timing keys) read too."""
+        best = data.get("best_score")
+        score = data.get("score_name")
+        if best is None:
+            olds = [k for k in data if k.startswith("best_val_")]
+            score = olds[0].removeprefix("best_") if olds else "not stated"
+            best = data[olds[0]] if olds else float("nan")
+        read = data.get("read_seconds", data.get("load_seconds"))
+        try:
+            return cls(
+                model=str(data["model"]), training_data=str(data["training_data"]),
+                train_seconds=float(data["train_seconds"]),
+                wall_seconds=float(data["wall_seconds"]), parameters=int(data["parameters"]),
+                seed=int(data["seed"]), threads=int(data["threads"]),
+                supervision=str(data["supervision"]), inputs=str(data["inputs"]),
+                score_name=str(score), best_score=float(best),
+                config=dict(data.get("config", {})), label=str(data.get("label", "")),
+                read_seconds=None if read is None else float(read))
+        except KeyError as exc:
+            msg = (f"model card of {data.get('model', '?')!r} lacks {exc.args[0]!r}; a "
+                   "training run writes every fact (retrain, or state it in the entry)")
+            raise InvalidArgument(msg) from exc
+
+
+def write_training_card(path: Path, card: TrainingCard) -> Path:
+    """Write ``card`` as sorted, indented JSON, atomically."""
+    from nsrmp_bench.storage.records import atomic_write_text
+
+    atomic_write_text(path, json.dumps(card.to_json(), indent=1, sort_keys=True) + "\n")
+    return path
+
+
+def read_training_card(path: Path) -> TrainingCard:
+    """The card of a training run (``card.json``) or a shipped ``<id>.card.json``."""
+    return TrainingCard.from_json(json.loads(Path(path).read_text("utf-8")))
+
+
 def _checkpoint_card(model: str) -> dict[str, Any] | None:
     try:
         path = resources.files("nsrmp_bench.reference_model").joinpath(
@@ -53,17 +124,22 @@ def _checkpoint_card(model: str) -> dict[str, Any] | None:
     return data
 
 
-def _from_checkpoint(card: dict[str, Any]) -> dict[str, str]:
-    time = (f"{float(card['train_seconds']):,.0f} s of training "
-            f"({float(card['wall_seconds']):,.0f} s wall) on {card['threads']} CPU threads"
-            if "train_seconds" in card else NOT_STATED)
-    params = card.get("parameters")
+def shipped_label(model: str) -> str:
+    """The label said beside a learned model's id (``not CLIPort``), from its shipped card;
+    empty if it has none."""
+    card = _checkpoint_card(model)
+    return str(card.get("label", "")) if card is not None else ""
+
+
+def _from_checkpoint(data: dict[str, Any]) -> dict[str, str]:
+    card = TrainingCard.from_json(data)
     return {
-        "training_data": str(card.get("training_data", NOT_STATED)),
-        "training_time": time,
-        "parameters": f"{int(params):,}" if params is not None else NOT_STATED,
-        "supervision": str(card.get("supervision", NOT_STATED)),
-        "inputs": str(card.get("inputs", NOT_STATED)),
+        "training_data": card.training_data,
+        "training_time": (f"{card.train_seconds:,.0f} s of training "
+                          f"({card.wall_seconds:,.0f} s wall) on {card.threads} CPU threads"),
+        "parameters": f"{card.parameters:,}",
+        "supervision": card.supervision,
+        "inputs": card.inputs,
     }
 
 

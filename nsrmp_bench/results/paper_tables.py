@@ -154,15 +154,15 @@ the paper's "Ours" is NSRM; its NMN+ baseline is ``nmn``."""
 
 def row_label(model: str) -> str:
     """Our row's label: ``ours: NMN+ (nmn-v1)`` for a model the paper has; else the id with
-    the registered model's label (``ours: dense-v1 (not CLIPort)``); else the id."""
-    from nsrmp_bench.reference_model.registry import MODELS
+    the label its shipped checkpoint's card states (``ours: dense-v1 (not CLIPort)``); else
+    the id."""
+    from nsrmp_bench.results.model_cards import shipped_label
 
     name = PAPER_NAMES.get(model.rsplit("-v", 1)[0])
     if name:
         return f"ours: {name} ({model})"
-    entry = MODELS.get(model)
-    return f"ours: {model} ({entry.label})" if entry is not None and entry.label else (
-        f"ours: {model}")
+    label = shipped_label(model)
+    return f"ours: {model} ({label})" if label else f"ours: {model}"
 
 
 def table_rows(table: PaperTable, results: Results, *, paper: bool = True) -> list[Row]:

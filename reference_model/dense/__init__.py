@@ -8,11 +8,10 @@ on paper-v2/val). See ``MODEL_CARD.md`` beside this file.
 
 from __future__ import annotations
 
-import json
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import torch
 import torch.nn.functional as F
@@ -20,17 +19,17 @@ from torch import Tensor
 
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.geometry.camera import Camera
-from nsrmp_bench.reference_model.checkpoints import load_checkpoint, save_checkpoint, write_card
+from nsrmp_bench.reference_model.base import PredictionModel, TrainingPlan
+from nsrmp_bench.reference_model.contract import Kind, ModelConfig
 from nsrmp_bench.reference_model.dense.config import Dense5xConfig, DenseConfig
 from nsrmp_bench.reference_model.dense.inference import Inferred, infer
 from nsrmp_bench.reference_model.dense.inputs import DenseInputs, encode_items, encode_part
 from nsrmp_bench.reference_model.dense.model import DenseNet
-from nsrmp_bench.reference_model.tokens import Vocabulary
-from nsrmp_bench.reference_model.training import Stage, train_stages
+from nsrmp_bench.reference_model.training import Stage
 from nsrmp_bench.scoring.submission import Prediction
 
 __all__ = ["MODEL_ID", "MODEL_ID_5X", "Dense5xConfig", "Dense5xPredictor", "DenseConfig",
-           "DensePredictor", "train_dense", "train_dense5x", "val_accuracy"]
+           "DensePredictor", "val_accuracy"]
 
 MODEL_ID = "dense-v1"
 MODEL_ID_5X = "dense5x-v1"
@@ -61,103 +60,75 @@ def _loss(model: DenseNet, enc: DenseInputs, rows: Tensor) -> Tensor:
             + F.cross_entropy(model.place_logits(x, text, pick), place))
 
 
-def _train(model_id: str, data: Path, out: Path, seed: int, cfg: DenseConfig,
-           quiet: bool) -> Path:
-    train_dir, val_dir = data / "train", (data / cfg.val).resolve()
-    if not (train_dir / "manifest.json").exists():
-        msg = (f"{data} has no finished part 'train' ({train_dir}); pass a split root "
-               "holding train/, e.g. data/paper-v2 (dense) or data/dense5x-v2 (dense5x)")
-        raise InvalidArgument(msg)
-    if not (val_dir / "manifest.json").exists():
-        msg = (f"the validation part {val_dir} (--data {data} + val {cfg.val!r}) is not a "
-               "finished part; pass --set val=PATH relative to --data (dense5x-v2 has no "
-               "val: it selects on ../paper-v2/val beside it)")
-        raise InvalidArgument(msg)
-    torch.set_num_threads(cfg.threads)
-    t0 = time.perf_counter()
-    train, vocab = encode_part(train_dir, None, cfg.scale, single_step=True, targets=True,
-                               workers=cfg.read_workers)
-    val, _ = encode_part(val_dir, vocab, cfg.scale, single_step=True, targets=True,
-                         limit=cfg.val_limit)
-    read_seconds = time.perf_counter() - t0
-    torch.manual_seed(seed)
-    model = DenseNet(len(vocab), cfg)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "config.json").write_text(json.dumps(cfg.to_dict(), indent=1) + "\n", "utf-8")
-    best = out / "best.pt"
-    last: dict[str, float] = {}
-
-    def validate(stage: Stage) -> float:
-        ident, place = val_accuracy(model, val)
-        last.update(identification=ident, placement=place)
-        return (ident + place) / 2
-
-    def on_best() -> None:
-        save_checkpoint(best, model_id, cfg.to_dict(), vocab.to_list(), model.state_dict(),
-                        {"seed": seed, "data": str(data), "val": {k: round(v, 4)
-                                                                  for k, v in last.items()}})
-
-    stage = Stage("dense", cfg.epochs, torch.arange(len(train)),
-                  lambda: list(model.parameters()), lambda rows: _loss(model, train, rows),
-                  cfg.lr, cfg.batch_size, uses_splitter=True)
-    state = train_stages(model, [stage], out, seed=seed, validate=validate, on_best=on_best,
-                         quiet=quiet, score_name="val_id_pl")
-    n_params = sum(p.numel() for p in model.parameters())
-    write_card(out / "card.json", {
-        "model": model_id, "label": LABEL,
-        "training_data": (f"{len(train)} single-step episodes of {train_dir}; selection on "
-                          f"the first {len(val)} single-step episodes of {val_dir.name} "
-                          f"({val_dir.parent.name})"),
-        "train_seconds": round(state.seconds, 1),
-        "wall_seconds": round(time.perf_counter() - t0, 1),
-        "read_seconds": round(read_seconds, 1),
-        "parameters": n_params, "best_val_id_pl": round(state.best, 4), "seed": seed,
-        "threads": cfg.threads,
-        "supervision": "the moved object's initial and final box centres (pick and place "
-                       "pixels) of single-step episodes; nothing else",
-        "inputs": "instruction text, initial RGB, initial depth (pooled by scale); the "
-                  "initial (gold) boxes only to snap the pick to an object and to move its "
-                  "box",
-        "config": cfg.to_dict(),
-    })
-    return best
-
-
-def train_dense(data: Path, out: Path, *, seed: int = 0, config: DenseConfig | None = None,
-                quiet: bool = False) -> Path:
-    """``dense-v1``: train on the single-step episodes of ``data/train``, select on those
-    of ``data/val``; returns ``out/best.pt``."""
-    return _train(MODEL_ID, data, out, seed, config or DenseConfig(), quiet)
-
-
-def train_dense5x(data: Path, out: Path, *, seed: int = 0,
-                  config: DenseConfig | None = None, quiet: bool = False) -> Path:
-    """``dense5x-v1``: as :func:`train_dense` on ``data/train`` (dense5x-v2), selecting on
-    ``data/../paper-v2/val`` (the config's ``val``)."""
-    return _train(MODEL_ID_5X, data, out, seed, config or Dense5xConfig(), quiet)
-
-
-class DensePredictor:
-    """A loaded dense model: predicts from what ``EpisodeDataset`` gives as ``inputs``.
+class DensePredictor(PredictionModel):
+    """``dense-v1``: trains on the single-step episodes of ``data/train``, selects on those
+    of ``data/val``; predicts from what ``EpisodeDataset`` gives as ``inputs``.
 
     A single-step model: on a multi-step episode it predicts one pick and place for the
     whole instruction (one object moved, the others where they were)."""
 
     model_id = MODEL_ID
-    config_cls: type[DenseConfig] = DenseConfig
+    kind = Kind.DENSE
+    label = LABEL
+    config_cls: ClassVar[type[ModelConfig]] = DenseConfig
+    supervision = ("the moved object's initial and final box centres (pick and place "
+                   "pixels) of single-step episodes; nothing else")
+    inputs = ("instruction text, initial RGB, initial depth (pooled by scale); the "
+              "initial (gold) boxes only to snap the pick to an object and to move its box")
+    data_hint = "e.g. data/paper-v2 (dense) or data/dense5x-v2 (dense5x)"
+    tiny_overrides: ClassVar[dict[str, object]] = {
+        "epochs": 3, "batch_size": 4, "width": 8, "word_dim": 16, "text_hidden": 16,
+        "val": "val", "val_limit": 8, "read_workers": 1}
+    config: DenseConfig
+    model: DenseNet
 
-    def __init__(self, checkpoint: str | Path) -> None:
-        payload = load_checkpoint(checkpoint, self.model_id)
-        self.config = self.config_cls.from_dict(payload["config"])
-        self.vocab = Vocabulary(tuple(payload["vocab"]))
-        self.model = DenseNet(len(self.vocab), self.config)
-        self.model.load_state_dict(payload["state"])
-        self.model.eval()
-        self.checkpoint = Path(checkpoint)
+    @classmethod
+    def build_network(cls, config: DenseConfig, vocab_size: int,
+                      state: Mapping[str, Tensor]) -> DenseNet:
+        return DenseNet(vocab_size, config)
+
+    @classmethod
+    def check_data(cls, data: Path, config: DenseConfig) -> None:
+        super().check_data(data, config)
+        val_dir = (data / config.val).resolve()
+        if not (val_dir / "manifest.json").exists():
+            msg = (f"the validation part {val_dir} (--data {data} + val {config.val!r}) is "
+                   "not a finished part; pass --set val=PATH relative to --data (dense5x-v2 "
+                   "has no val: it selects on ../paper-v2/val beside it)")
+            raise InvalidArgument(msg)
+
+    @classmethod
+    def plan_training(cls, data: Path, config: DenseConfig, seed: int) -> TrainingPlan:
+        cfg = config
+        train_dir, val_dir = data / "train", (data / cfg.val).resolve()
+        t0 = time.perf_counter()
+        train, vocab = encode_part(train_dir, None, cfg.scale, single_step=True, targets=True,
+                                   workers=cfg.read_workers)
+        val, _ = encode_part(val_dir, vocab, cfg.scale, single_step=True, targets=True,
+                             limit=cfg.val_limit)
+        read_seconds = time.perf_counter() - t0
+        model = DenseNet(len(vocab), cfg)
+        last: dict[str, float] = {}
+
+        def validate(stage: Stage) -> float:
+            ident, place = val_accuracy(model, val)
+            last.update(identification=ident, placement=place)
+            return (ident + place) / 2
+
+        stage = Stage("dense", cfg.epochs, torch.arange(len(train)),
+                      lambda: list(model.parameters()), lambda rows: _loss(model, train, rows),
+                      cfg.lr, cfg.batch_size, uses_splitter=True)
+        return TrainingPlan(
+            network=model, stages=[stage], validate=validate,
+            training_data=(f"{len(train)} single-step episodes of {train_dir}; selection on "
+                           f"the first {len(val)} single-step episodes of {val_dir.name} "
+                           f"({val_dir.parent.name})"),
+            vocab=vocab.to_list(), score_name="val_id_pl", read_seconds=read_seconds,
+            checkpoint_extra=lambda: {"val": {k: round(v, 4) for k, v in last.items()}})
 
     def infer(self, items: Sequence[dict[str, Any]]) -> tuple[DenseInputs, Inferred]:
         """Encode the items' inputs and run the model."""
-        torch.set_num_threads(self.config.threads)
+        self.set_threads()
         enc, _ = encode_items(items, self.vocab, self.config.scale, targets=False)
         return enc, infer(self.model, enc)
 
@@ -174,7 +145,9 @@ class DensePredictor:
 
 
 class Dense5xPredictor(DensePredictor):
-    """A loaded ``dense5x-v1``."""
+    """``dense5x-v1``: as ``dense-v1`` on ``data/train`` (dense5x-v2), selecting on
+    ``data/../paper-v2/val`` (the config's ``val``)."""
 
     model_id = MODEL_ID_5X
+    label = "not CLIPort, 5x data"
     config_cls = Dense5xConfig

@@ -3,14 +3,15 @@ validation part lies; one frozen dataclass per registered id (``dense-v1``, ``de
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
+
+from nsrmp_bench.reference_model.contract import ModelConfig
 
 __all__ = ["Dense5xConfig", "DenseConfig"]
 
 
 @dataclass(frozen=True)
-class DenseConfig:
+class DenseConfig(ModelConfig):
     """Everything that shapes a dense run; stored in every checkpoint."""
 
     scale: int = 4  # the image is average-pooled by this factor before the network
@@ -26,14 +27,6 @@ class DenseConfig:
     threads: int = 2
     read_workers: int = 2  # processes that read and pool the training part's images
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-able form."""
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> DenseConfig:
-        """Inverse of :meth:`to_dict` (unknown keys are an error)."""
-        return cls(**data)
 
 
 @dataclass(frozen=True)

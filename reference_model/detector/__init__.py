@@ -8,11 +8,10 @@ writes its detections. See ``MODEL_CARD.md`` beside this file.
 
 from __future__ import annotations
 
-import json
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import Any
+from typing import ClassVar
 
 import torch
 from torch import Tensor
@@ -20,15 +19,17 @@ from torch import Tensor
 from nsrmp_bench.detection.detections import Detections
 from nsrmp_bench.detection.matching import MATCH_IOU, hungarian_match
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.reference_model.checkpoints import load_checkpoint, save_checkpoint, write_card
+from nsrmp_bench.reference_model.base import LearnedModel, TrainingPlan
+from nsrmp_bench.reference_model.contract import Kind, ModelConfig
 from nsrmp_bench.reference_model.detector.config import DetectorConfig
 from nsrmp_bench.reference_model.detector.loss import detection_loss
 from nsrmp_bench.reference_model.detector.model import CenterNet, decode, image_tensor
 from nsrmp_bench.reference_model.detector.scenes import Scenes, read_scenes
-from nsrmp_bench.reference_model.training import Stage, train_stages
+from nsrmp_bench.reference_model.training import Stage
 from nsrmp_bench.vocabulary import COLOURS, SHAPES
 
-__all__ = ["MODEL_ID", "DetectorConfig", "DetectorPredictor", "train_detector"]
+__all__ = ["MODEL_ID", "DetectorConfig", "DetectorPredictor", "detect_scenes",
+           "detect_with"]
 
 MODEL_ID = "detector-v1"
 
@@ -81,75 +82,58 @@ def _val_f1(model: CenterNet, val: Scenes, cfg: DetectorConfig) -> float:
     return 2 * tp / max(1, n_gold + n_det)
 
 
-def train_detector(data: Path, out: Path, *, seed: int = 0,
-                   config: DetectorConfig | None = None, quiet: bool = False) -> Path:
-    """Train on ``data/train``, select on the first episodes of ``data/val``; returns
-    ``out/best.pt``."""
-    cfg = config or DetectorConfig()
-    if not (data / "train" / "manifest.json").exists():
-        msg = (f"{data} has no finished part 'train' ({data / 'train'}); pass a split root "
-               "holding train/ (and val/), e.g. data/paper-v2")
-        raise InvalidArgument(msg)
-    torch.set_num_threads(cfg.threads)
-    torch.manual_seed(seed)
-    t0 = time.perf_counter()
-    train = read_scenes(data / "train", targets=True, limit=cfg.train_limit)
-    if (data / "val" / "manifest.json").exists():
-        val = read_scenes(data / "val", targets=True, limit=cfg.val_limit)
-    else:
-        msg = f"{data} has no val part ({data / 'val'}); the detector selects on it"
-        raise InvalidArgument(msg)
-    load_seconds = time.perf_counter() - t0
-    model = CenterNet(cfg.width)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "config.json").write_text(json.dumps(cfg.to_dict(), indent=1) + "\n", "utf-8")
-    best = out / "best.pt"
-
-    def step(rows: Tensor) -> Tensor:
-        x, boxes, shapes, colours = _crop_batch(train, rows, cfg)
-        return detection_loss(model(x), boxes, shapes, colours)
-
-    def on_best() -> None:
-        save_checkpoint(best, MODEL_ID, cfg.to_dict(), [], model.state_dict(),
-                        {"seed": seed, "data": str(data)})
-
-    stage = Stage("detector", cfg.epochs, torch.arange(len(train)),
-                  lambda: list(model.parameters()), step, cfg.lr, cfg.batch_size,
-                  uses_splitter=True)
-    state = train_stages(model, [stage], out, seed=seed,
-                         validate=lambda _s: _val_f1(model, val, cfg), on_best=on_best,
-                         quiet=quiet)
-    n_params = sum(p.numel() for p in model.parameters())
-    write_card(out / "card.json", {
-        "model": MODEL_ID,
-        "training_data": f"{len(train)} initial scenes of {data / 'train'}; selection on "
-                         f"the first {len(val)} of val (F1 at IoU 0.5)",
-        "train_seconds": round(state.seconds, 1), "load_seconds": round(load_seconds, 1),
-        "wall_seconds": round(time.perf_counter() - t0, 1), "parameters": n_params,
-        "best_val_f1": round(state.best, 4), "seed": seed, "threads": cfg.threads,
-        "supervision": "gold initial amodal boxes, each object's shape and colour",
-        "inputs": "initial RGB, initial depth (as height above the table via the camera)",
-        "config": cfg.to_dict(),
-    })
-    return best
-
-
-class DetectorPredictor:
-    """A loaded learned detector."""
+class DetectorPredictor(LearnedModel):
+    """``detector-v1``: trains on ``data/train``, selects on the first episodes of
+    ``data/val`` (F1 at IoU 0.5); writes detections, not predictions (:meth:`detect_part`,
+    ``nsrmp-bench detect``)."""
 
     model_id = MODEL_ID
+    kind = Kind.DETECTOR
+    config_cls: ClassVar[type[ModelConfig]] = DetectorConfig
+    supervision = "gold initial amodal boxes, each object's shape and colour"
+    inputs = "initial RGB, initial depth (as height above the table via the camera)"
+    tiny_overrides: ClassVar[dict[str, object]] = {
+        "epochs": 3, "batch_size": 4, "width": 8, "train_limit": 0, "val_limit": 4}
+    config: DetectorConfig
+    model: CenterNet
 
-    def __init__(self, checkpoint: str | Path) -> None:
-        payload = load_checkpoint(checkpoint, MODEL_ID)
-        self.config = DetectorConfig.from_dict(payload["config"])
-        self.model = CenterNet(self.config.width)
-        self.model.load_state_dict(payload["state"])
-        self.model.eval()
-        self.checkpoint = Path(checkpoint)
+    @classmethod
+    def build_network(cls, config: DetectorConfig, vocab_size: int,
+                      state: Mapping[str, Tensor]) -> CenterNet:
+        return CenterNet(config.width)
+
+    @classmethod
+    def check_data(cls, data: Path, config: DetectorConfig) -> None:
+        super().check_data(data, config)
+        if not (data / "val" / "manifest.json").exists():
+            msg = f"{data} has no val part ({data / 'val'}); the detector selects on it"
+            raise InvalidArgument(msg)
+
+    @classmethod
+    def plan_training(cls, data: Path, config: DetectorConfig, seed: int) -> TrainingPlan:
+        cfg = config
+        t0 = time.perf_counter()
+        train = read_scenes(data / "train", targets=True, limit=cfg.train_limit)
+        val = read_scenes(data / "val", targets=True, limit=cfg.val_limit)
+        read_seconds = time.perf_counter() - t0
+        model = CenterNet(cfg.width)
+
+        def step(rows: Tensor) -> Tensor:
+            x, boxes, shapes, colours = _crop_batch(train, rows, cfg)
+            return detection_loss(model(x), boxes, shapes, colours)
+
+        stage = Stage("detector", cfg.epochs, torch.arange(len(train)),
+                      lambda: list(model.parameters()), step, cfg.lr, cfg.batch_size,
+                      uses_splitter=True)
+        return TrainingPlan(
+            network=model, stages=[stage], validate=lambda _s: _val_f1(model, val, cfg),
+            training_data=(f"{len(train)} initial scenes of {data / 'train'}; selection on "
+                           f"the first {len(val)} of val (F1 at IoU 0.5)"),
+            score_name="val F1", read_seconds=read_seconds)
 
     def detect(self, scenes: Scenes) -> list[Detections]:
         """Detections of every scene."""
-        torch.set_num_threads(self.config.threads)
+        self.set_threads()
         return detect_scenes(self.model, scenes, self.config)
 
     def detect_part(self, data: str | Path) -> Iterator[Detections]:
@@ -160,8 +144,13 @@ class DetectorPredictor:
         for s in range(0, len(col), 200):
             yield from self.detect(read_scenes(col, targets=False, start=s, stop=s + 200))
 
-    def predict(self, items: Any, camera: Any) -> Any:
-        """The detector writes detections, not predictions (``nsrmp-bench detect``)."""
-        msg = ("detector-v1 writes detections, not a predictions file: run `nsrmp-bench "
-               "detect --detector learned --data DATA --out detections.jsonl`")
-        raise InvalidArgument(msg)
+
+def detect_with(part: Path, checkpoint: Path | None
+                ) -> tuple[str, Iterator[Detections], dict[str, object]]:
+    """The learned detector (``checkpoint``, else the shipped one) over a part, as
+    :func:`nsrmp_bench.detection.part_detection.detect_part` runs it."""
+    from nsrmp_bench.reference_model.checkpoints import shipped_checkpoint
+
+    path = checkpoint if checkpoint is not None else shipped_checkpoint(MODEL_ID)
+    model = DetectorPredictor.from_checkpoint(path)
+    return MODEL_ID, model.detect_part(part), {"checkpoint": path.name}

@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
+
+from nsrmp_bench.reference_model.contract import ModelConfig
 
 __all__ = ["DetectorConfig"]
 
 
 @dataclass(frozen=True)
-class DetectorConfig:
+class DetectorConfig(ModelConfig):
     """Everything that shapes a detector run (defaults: the shipped run)."""
 
     width: int = 24  # channels at stride 4; 1.5x at stride 8
@@ -24,11 +25,3 @@ class DetectorConfig:
     val_limit: int = 200  # select on the first N validation episodes
     threads: int = 2
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-able form."""
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> DetectorConfig:
-        """Inverse of :meth:`to_dict` (unknown keys are an error)."""
-        return cls(**data)

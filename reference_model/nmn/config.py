@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
 
+from nsrmp_bench.reference_model.contract import ModelConfig
 from nsrmp_bench.reference_model.nsrm.config import NSRMConfig
 
 __all__ = ["NMNConfig"]
 
 
 @dataclass(frozen=True)
-class NMNConfig:
+class NMNConfig(ModelConfig):
     """Everything that shapes an NMN+ run; stored in every checkpoint.
 
     ``word_dim``, ``hidden``, ``word_dropout``, ``visual_dim`` and ``action_hidden`` size the
@@ -43,11 +43,3 @@ class NMNConfig:
                           word_dropout=self.word_dropout, max_steps=self.max_steps,
                           threads=self.threads)
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-able form."""
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> NMNConfig:
-        """Inverse of :meth:`to_dict` (unknown keys are an error)."""
-        return cls(**data)

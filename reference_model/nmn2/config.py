@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
+
+from nsrmp_bench.reference_model.contract import ModelConfig
 
 __all__ = ["NMN2Config"]
 
 
 @dataclass(frozen=True)
-class NMN2Config:
+class NMN2Config(ModelConfig):
     """Everything that shapes an NMN+ v2 run; stored in every checkpoint. The stages,
     batch and optimiser are NSRM v2's, so that the comparison isolates the program."""
 
@@ -22,12 +23,3 @@ class NMN2Config:
     batch_size: int = 32
     lr: float = 2e-3  # nmn-v1's; at NSRM v2's 1e-2 it stayed at chance for 9 epochs
     threads: int = 2
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-able form."""
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> NMN2Config:
-        """Inverse of :meth:`to_dict` (unknown keys are an error)."""
-        return cls(**data)

@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
+
+from nsrmp_bench.reference_model.contract import ModelConfig
 
 __all__ = ["NSRMConfig"]
 
 
 @dataclass(frozen=True)
-class NSRMConfig:
+class NSRMConfig(ModelConfig):
     """Everything that shapes an NSRM run; stored in every checkpoint."""
 
     word_dim: int = 64
@@ -35,11 +36,3 @@ class NSRMConfig:
     max_steps: int = 7  # recursive splitting stops here
     threads: int = 2
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-able form."""
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> NSRMConfig:
-        """Inverse of :meth:`to_dict` (unknown keys are an error)."""
-        return cls(**data)

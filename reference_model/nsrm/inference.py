@@ -6,22 +6,23 @@ after each step, from which the predictions writer makes boxes.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
+from abc import abstractmethod
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, ClassVar, Protocol
 
 import torch
 from torch import Tensor
 
 from nsrmp_bench.geometry.camera import Camera
-from nsrmp_bench.reference_model.checkpoints import load_checkpoint
+from nsrmp_bench.reference_model.base import PredictionModel
+from nsrmp_bench.reference_model.contract import Kind
 from nsrmp_bench.reference_model.encoded import Encoded, encode_inputs
 from nsrmp_bench.reference_model.nsrm.loss import iou, world_to_boxes
 from nsrmp_bench.reference_model.nsrm.model import NSRM, hard_pointers, piece_parses, split_pieces
 from nsrmp_bench.reference_model.nsrm.modules import Splitter
 from nsrmp_bench.reference_model.predictions import model_predictions
-from nsrmp_bench.reference_model.tokens import PAD, Vocabulary
+from nsrmp_bench.reference_model.tokens import PAD
 from nsrmp_bench.scoring.submission import Prediction
 
 __all__ = ["Inferred", "ProgramPredictor", "infer", "inferred_iou_m", "inferred_predictions",
@@ -126,37 +127,21 @@ def inferred_predictions(enc: Encoded, res: Inferred, camera: Camera) -> Iterato
     return model_predictions(enc.ids, init, res.steps, boxes, depths, camera)
 
 
-class ProgramPredictor:
+class ProgramPredictor(PredictionModel):
     """A loaded program model (NSRM, NMN+): predicts from what ``EpisodeDataset`` gives as
-    ``inputs`` only. A subclass names its id and how to build its config, its network and
-    its inference from the checkpoint."""
+    ``inputs`` only. A subclass names its id, config and network
+    (:meth:`~nsrmp_bench.reference_model.base.LearnedModel.build_network`), its curriculum
+    (``plan_training``) and its inference (:meth:`run`)."""
 
-    model_id: ClassVar[str]
+    kind: ClassVar[Kind] = Kind.PROGRAM
 
-    def __init__(self, checkpoint: str | Path) -> None:
-        payload = load_checkpoint(checkpoint, self.model_id)
-        self.config = self.read_config(payload["config"])
-        self.vocab = Vocabulary(tuple(payload["vocab"]))
-        self.model = self.build(len(self.vocab))
-        self.model.load_state_dict(payload["state"])
-        self.model.eval()
-        self.checkpoint = Path(checkpoint)
-
-    def read_config(self, data: Mapping[str, Any]) -> Any:
-        """The model's config from the checkpoint's dict."""
-        raise NotImplementedError
-
-    def build(self, vocab_size: int) -> torch.nn.Module:
-        """The untrained network for ``self.config``."""
-        raise NotImplementedError
-
+    @abstractmethod
     def run(self, enc: Encoded) -> Inferred:
         """The network over encoded inputs."""
-        raise NotImplementedError
 
     def infer(self, items: Sequence[dict[str, Any]]) -> tuple[Encoded, Inferred]:
         """Encode the items' inputs and run the model."""
-        torch.set_num_threads(self.config.threads)
+        self.set_threads()
         enc = encode_inputs(items, self.vocab)
         return enc, self.run(enc)
 

@@ -6,30 +6,24 @@ action rule. See ``MODEL_CARD.md`` beside this file.
 
 from __future__ import annotations
 
-from pathlib import Path
+from typing import ClassVar
 
+from nsrmp_bench.reference_model.contract import ModelConfig
 from nsrmp_bench.reference_model.nsrm2.config import NSRM2Config
 from nsrmp_bench.reference_model.nsrm2.model import ConceptStepModel
-from nsrmp_bench.reference_model.program.run import ProgramPredictor, train_program_model
+from nsrmp_bench.reference_model.program.run import ProgramModelBase
 
-__all__ = ["MODEL_ID", "NSRM2Config", "NSRM2Predictor", "train_nsrm2"]
+__all__ = ["MODEL_ID", "NSRM2Config", "NSRM2Model"]
 
 MODEL_ID = "nsrm-v2"
 
 
-def train_nsrm2(data: Path, out: Path, *, seed: int = 0, config: NSRM2Config | None = None,
-                quiet: bool = False) -> Path:
-    """Train on ``data/train``, select on ``data/val``; returns ``out/best.pt``."""
-    cfg = config or NSRM2Config()
-    return train_program_model(MODEL_ID, lambda v: ConceptStepModel(v, cfg), cfg, data, out,
-                               seed=seed, quiet=quiet)
-
-
-class NSRM2Predictor(ProgramPredictor):
-    """A loaded NSRM v2."""
+class NSRM2Model(ProgramModelBase):
+    """NSRM v2: the concept step model on the shared program parts."""
 
     model_id = MODEL_ID
-    config_cls = NSRM2Config
+    config_cls: ClassVar[type[ModelConfig]] = NSRM2Config
 
-    def __init__(self, checkpoint: Path) -> None:
-        super().__init__(checkpoint, ConceptStepModel)
+    @classmethod
+    def step_model(cls, config: NSRM2Config, vocab_size: int) -> ConceptStepModel:
+        return ConceptStepModel(vocab_size, config)

@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
+
+from nsrmp_bench.reference_model.contract import ModelConfig
 
 __all__ = ["NSRM2Config"]
 
 
 @dataclass(frozen=True)
-class NSRM2Config:
+class NSRM2Config(ModelConfig):
     """Everything that shapes an NSRM v2 run; stored in every checkpoint."""
 
     concept_dim: int = 32
@@ -22,12 +23,3 @@ class NSRM2Config:
     batch_size: int = 32
     lr: float = 1e-2
     threads: int = 2
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-able form."""
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> NSRM2Config:
-        """Inverse of :meth:`to_dict` (unknown keys are an error)."""
-        return cls(**data)

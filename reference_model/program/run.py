@@ -1,5 +1,5 @@
-"""Training and loading a program model (NSRM v2, NMN+ v2): one function each, given
-the model's id and how to build its step model.
+"""The program models' class on the learned-model contract (NSRM v2, NMN+ v2): a
+subclass names its id, config and step model; training and prediction are here, once.
 
 Training reads ``data/train`` (selection on ``data/val``; a split without val selects on
 the last tenth of train), fits the action rule, derives each episode's consistent
@@ -12,17 +12,17 @@ in the joint stage.
 
 from __future__ import annotations
 
-import json
 import time
-from collections.abc import Callable, Iterator
+from abc import abstractmethod
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import Any, cast
+from typing import Any, ClassVar
 
 import torch
 
-from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.geometry.camera import Camera
-from nsrmp_bench.reference_model.checkpoints import load_checkpoint, save_checkpoint, write_card
+from nsrmp_bench.reference_model.base import PredictionModel, TrainingPlan
+from nsrmp_bench.reference_model.contract import Kind
 from nsrmp_bench.reference_model.encoded import encode_targets
 from nsrmp_bench.reference_model.program.data import (
     ProgramData,
@@ -43,10 +43,10 @@ from nsrmp_bench.reference_model.program.modules import ProgramModel, Splitter, 
 from nsrmp_bench.reference_model.program.scene3d import ActionRule
 from nsrmp_bench.reference_model.program.training import joint_loss, single_loss
 from nsrmp_bench.reference_model.tokens import Vocabulary
-from nsrmp_bench.reference_model.training import Stage, train_stages
+from nsrmp_bench.reference_model.training import Stage
 from nsrmp_bench.scoring.submission import Prediction
 
-__all__ = ["INPUTS", "SUPERVISION", "ProgramPredictor", "train_program_model"]
+__all__ = ["INPUTS", "SUPERVISION", "ProgramModelBase"]
 
 SUPERVISION = (
     "initial and final boxes only: the programs consistent with them under the action "
@@ -55,93 +55,98 @@ SUPERVISION = (
 INPUTS = "instruction text, initial RGB, initial depth, initial (gold) boxes, the camera"
 
 
-def _parts(data: Path) -> tuple[Path, Path | None]:
-    if not (data / "train" / "manifest.json").exists():
-        msg = (f"{data} has no finished part 'train' ({data / 'train'}); pass a split root "
-               "holding train/ (and val/), e.g. generate one with `nsrmp-bench generate "
-               "--split paper-v2 --out data/paper-v2`")
-        raise InvalidArgument(msg)
-    val = data / "val"
-    return data / "train", val if (val / "manifest.json").exists() else None
+class ProgramModelBase(PredictionModel):
+    """A program model on the shared parts: only its step model differs."""
 
+    kind = Kind.PROGRAM
+    supervision = SUPERVISION
+    inputs = INPUTS
+    tiny_overrides: ClassVar[dict[str, object]] = {
+        "epochs_warmup": 1, "epochs_single": 2, "epochs_joint": 1, "batch_size": 8}
+    model: ProgramModel
 
-def train_program_model(model_id: str, build: Callable[[int], StepModel], cfg: Any,
-                        data: Path, out: Path, *, seed: int, quiet: bool) -> Path:
-    """Train a program model (see the module doc); returns ``out/best.pt``."""
-    torch.set_num_threads(int(cfg.threads))
-    torch.manual_seed(seed)
-    t0 = time.perf_counter()
-    train_dir, val_dir = _parts(data)
-    items, ds = read_items(train_dir)
-    vocab = Vocabulary.build(str(it["inputs"]["instruction"]) for it in items)
-    camera = part_camera(train_dir)
-    cats = ds.collection.index.set_index("id").to_dict("index")
-    if val_dir is None:
-        cut = len(items) - max(1, len(items) // 10)
-        items, val_items, val_cats = items[:cut], items[cut:], cats
-    else:
-        val_items, vds = read_items(val_dir)
-        val_cats = vds.collection.index.set_index("id").to_dict("index")
-    # the states depend on the rule's fixed centre only, so one encoding serves the fit
-    train = program_data(items, vocab, camera, ActionRule())
-    encode_targets(train.enc, items, cats)
-    rule = fit_part_rule(train)
-    train = with_training_signal(train, items, cats, rule)
-    val = with_training_signal(program_data(val_items, vocab, camera, rule), val_items,
-                               val_cats, rule)
-    torch.manual_seed(seed)
-    model = ProgramModel(build(len(vocab)), Splitter(len(vocab)))
-    model.rule = rule
-    out.mkdir(parents=True, exist_ok=True)
-    _write_json(out / "config.json", cfg.to_dict())
-    best = out / "best.pt"
-    assert train.consistent is not None and train.moved is not None
-    single_rows = torch.tensor([i for i, c in enumerate(train.consistent)
-                                if train.moved[i] == 1 and len(c.one)], dtype=torch.long)
-    joint_rows = torch.tensor([i for i, c in enumerate(train.consistent)
-                               if len(c.one) or len(c.two)], dtype=torch.long)
+    @classmethod
+    @abstractmethod
+    def step_model(cls, config: Any, vocab_size: int) -> StepModel:
+        """The untrained step model for ``config``."""
 
-    def single(rows: torch.Tensor) -> torch.Tensor:
-        return single_loss(model.step, train, rows.tolist())
+    @classmethod
+    def build_network(cls, config: Any, vocab_size: int,
+                      state: Mapping[str, torch.Tensor]) -> ProgramModel:
+        return ProgramModel(cls.step_model(config, vocab_size), Splitter(vocab_size))
 
-    def joint(rows: torch.Tensor) -> torch.Tensor:
-        return joint_loss(model.step, model.splitter, train, rows.tolist())
+    @classmethod
+    def plan_training(cls, data: Path, config: Any, seed: int) -> TrainingPlan:
+        t0 = time.perf_counter()
+        train_dir, val_dir = data / "train", data / "val"
+        items, ds = read_items(train_dir)
+        vocab = Vocabulary.build(str(it["inputs"]["instruction"]) for it in items)
+        camera = part_camera(train_dir)
+        cats = ds.collection.index.set_index("id").to_dict("index")
+        if not (val_dir / "manifest.json").exists():
+            cut = len(items) - max(1, len(items) // 10)
+            items, val_items, val_cats = items[:cut], items[cut:], cats
+            selected_on = "the last tenth of train"
+        else:
+            val_items, vds = read_items(val_dir)
+            val_cats = vds.collection.index.set_index("id").to_dict("index")
+            selected_on = "val"
+        # the states depend on the rule's fixed centre only, so one encoding serves the fit
+        train = program_data(items, vocab, camera, ActionRule())
+        encode_targets(train.enc, items, cats)
+        rule = fit_part_rule(train)
+        train = with_training_signal(train, items, cats, rule)
+        val = with_training_signal(program_data(val_items, vocab, camera, rule), val_items,
+                                   val_cats, rule)
+        read = time.perf_counter() - t0
+        torch.manual_seed(seed)
+        model = cls.build_network(config, len(vocab), {})
+        model.rule = rule
+        assert train.consistent is not None and train.moved is not None
+        single_rows = torch.tensor([i for i, c in enumerate(train.consistent)
+                                    if train.moved[i] == 1 and len(c.one)], dtype=torch.long)
+        joint_rows = torch.tensor([i for i, c in enumerate(train.consistent)
+                                   if len(c.one) or len(c.two)], dtype=torch.long)
 
-    stages = [
-        Stage("warmup", int(cfg.epochs_warmup), single_rows, model.step.warmup_parameters,
-              single, float(cfg.lr), int(cfg.batch_size)),
-        Stage("single", int(cfg.epochs_single), single_rows,
-              lambda: list(model.step.parameters()), single, float(cfg.lr),
-              int(cfg.batch_size)),
-        Stage("joint", int(cfg.epochs_joint), joint_rows, lambda: list(model.parameters()),
-              joint, float(cfg.lr) / 2, int(cfg.batch_size), uses_splitter=True),
-    ]
+        def single(rows: torch.Tensor) -> torch.Tensor:
+            return single_loss(model.step, train, rows.tolist())
 
-    gold = [[tuple(int(x) for x in row) for row in it["targets"]["grounded"].tolist()]
-            for it in val_items]  # for the log's figures only
+        def joint(rows: torch.Tensor) -> torch.Tensor:
+            return joint_loss(model.step, model.splitter, train, rows.tolist())
 
-    def validate(stage: Stage) -> tuple[float, dict[str, float]]:
-        decoded = decode(model.step, model.splitter, val, rule)
-        return decoded_iou_m(val, decoded), validation_figures(val, decoded, gold)
+        stages = [
+            Stage("warmup", int(config.epochs_warmup), single_rows,
+                  model.step.warmup_parameters, single, float(config.lr),
+                  int(config.batch_size)),
+            Stage("single", int(config.epochs_single), single_rows,
+                  lambda: list(model.step.parameters()), single, float(config.lr),
+                  int(config.batch_size)),
+            Stage("joint", int(config.epochs_joint), joint_rows,
+                  lambda: list(model.parameters()), joint, float(config.lr) / 2,
+                  int(config.batch_size), uses_splitter=True),
+        ]
+        gold = [[tuple(int(x) for x in row) for row in it["targets"]["grounded"].tolist()]
+                for it in val_items]  # for the log's figures only
 
-    def on_best() -> None:
-        save_checkpoint(best, model_id, cfg.to_dict(), vocab.to_list(), model.state_dict(),
-                        {"seed": seed, "data": str(data)})
+        def validate(stage: Stage) -> tuple[float, dict[str, float]]:
+            decoded = decode(model.step, model.splitter, val, model.rule)
+            return decoded_iou_m(val, decoded), validation_figures(val, decoded, gold)
 
-    state = train_stages(model, stages, out, seed=seed, validate=validate, on_best=on_best,
-                         quiet=quiet)
-    n_params = sum(p.numel() for p in model.parameters())
-    write_card(out / "card.json", {
-        "model": model_id, "train_seconds": round(state.seconds, 1),
-        "wall_seconds": round(time.perf_counter() - t0, 1), "parameters": n_params,
-        "best_val_iou_m": round(state.best, 4), "seed": seed, "threads": int(cfg.threads),
-        "training_data": f"{len(train)} training episodes ({len(single_rows)} with one "
-                         f"changed box in the single stage); selection on "
-                         f"{'val' if val_dir is not None else 'the last tenth of train'}",
-        "action_rule": rule.to_dict(), "config": cfg.to_dict(),
-        "supervision": SUPERVISION, "inputs": INPUTS,
-    })
-    return best
+        return TrainingPlan(
+            network=model, stages=stages, validate=validate, vocab=vocab.to_list(),
+            training_data=(f"{len(train)} training episodes ({len(single_rows)} with one "
+                           f"changed box in the warmup and single stages); selection on "
+                           f"{selected_on}"),
+            read_seconds=read)
+
+    def predict(self, items: Sequence[dict[str, Any]], camera: Camera,
+                oracle: Oracle | None = None) -> Iterator[Prediction]:
+        """Predictions for ``items`` (``oracle``: the diagnosis's gold substitutions)."""
+        self.set_threads()
+        data = program_data(list(items), self.vocab, camera, self.model.rule)
+        decoded = decode(self.model.step, self.model.splitter, data, self.model.rule, oracle)
+        ids = [str(it["id"]) for it in items]
+        return decoded_predictions(ids, data, decoded, camera)
 
 
 def validation_figures(data: ProgramData, decoded: Decoded,
@@ -159,46 +164,3 @@ def validation_figures(data: ProgramData, decoded: Decoded,
     return {"val_subject_relational": hit[True][0] / max(hit[True][1], 1),
             "val_subject_attribute": hit[False][0] / max(hit[False][1], 1),
             "val_split": split / max(len(gold), 1)}
-
-
-def _write_json(path: Path, data: dict[str, Any]) -> None:
-    import os
-
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w", encoding="utf-8") as fh:
-        fh.write(json.dumps(data, indent=1) + "\n")
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-
-
-class ProgramPredictor:
-    """A loaded program model: predicts from what ``EpisodeDataset`` gives as ``inputs``."""
-
-    model_id: str
-    config_cls: Callable[..., Any]
-
-    def __init__(self, checkpoint: Path,
-                 build: Callable[[int, Any], StepModel]) -> None:
-        payload = load_checkpoint(checkpoint, self.model_id)
-        self.checkpoint = Path(checkpoint)
-        self.config = self.config_cls(**payload["config"])
-        self.vocab = Vocabulary(tuple(payload["vocab"]))
-        self.model = ProgramModel(build(len(self.vocab), self.config),
-                                  Splitter(len(self.vocab)))
-        self.model.load_state_dict(payload["state"])
-        self.rule = self.model.rule
-        self.model.eval()
-        torch.set_num_threads(int(self.config.threads))
-
-    def data(self, items: list[dict[str, Any]], camera: Camera) -> ProgramData:
-        """The items prepared for the model (inputs only)."""
-        return program_data(items, self.vocab, camera, self.rule)
-
-    def predict(self, items: list[dict[str, Any]], camera: Camera,
-                oracle: Oracle | None = None) -> Iterator[Prediction]:
-        """Predictions for ``items`` (``oracle``: the diagnosis's gold substitutions)."""
-        data = self.data(items, camera)
-        decoded = decode(self.model.step, self.model.splitter, data, self.rule, oracle)
-        ids = [str(it["id"]) for it in items]
-        return cast(Iterator[Prediction], decoded_predictions(ids, data, decoded, camera))

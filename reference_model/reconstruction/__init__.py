@@ -9,17 +9,18 @@ and scores it with SSIM.
 
 from __future__ import annotations
 
-import json
 import time
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import torch
 from numpy.typing import NDArray
 
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.reference_model.checkpoints import load_checkpoint, save_checkpoint, write_card
+from nsrmp_bench.reference_model.base import LearnedModel, TrainingPlan
+from nsrmp_bench.reference_model.contract import Kind, ModelConfig
 from nsrmp_bench.reference_model.reconstruction.config import ReconstructionConfig
 from nsrmp_bench.reference_model.reconstruction.data import (
     Patches,
@@ -32,10 +33,10 @@ from nsrmp_bench.reference_model.reconstruction.inputs import (
     step_inputs,
 )
 from nsrmp_bench.reference_model.reconstruction.model import ReconstructionNet
-from nsrmp_bench.reference_model.training import Stage, train_stages
+from nsrmp_bench.reference_model.training import Stage
 
 __all__ = ["MODEL_ID", "ReconstructionConfig", "ReconstructionPredictor",
-           "train_reconstruction", "val_region_ssim"]
+           "val_region_ssim"]
 
 MODEL_ID = "reconstruction-v1"
 
@@ -72,86 +73,63 @@ def val_region_ssim(model: ReconstructionNet, patches: Patches) -> float:
     return float(np.nanmean(scores))
 
 
-def train_reconstruction(data: Path, out: Path, *, seed: int = 0,
-                         config: ReconstructionConfig | None = None,
-                         quiet: bool = False) -> Path:
-    """Train on the renders of ``data/train``, select on ``data/val``; returns ``out/best.pt``.
-
-    A split without a val part selects on the last tenth of the train episodes read.
-    """
-    cfg = config or ReconstructionConfig()
-    if not (data / "train" / "manifest.json").exists():
-        msg = (f"{data} has no finished part 'train' ({data / 'train'}); pass a split root "
-               "holding train/ (and val/), e.g. data/paper-v2")
-        raise InvalidArgument(msg)
-    if cfg.patch % 4 or cfg.patch < 8:
-        msg = f"patch must be a multiple of 4 and at least 8, got {cfg.patch}"
-        raise InvalidArgument(msg)
-    torch.set_num_threads(cfg.threads)
-    torch.manual_seed(seed)
-    t0 = time.perf_counter()
-    plate = background_plate(data / "train", cfg.plate_episodes)
-    opts = {"patch": cfg.patch, "margin": cfg.margin}
-    train = part_patches(data / "train", plate, limit=cfg.train_episodes, **opts)
-    if (data / "val" / "manifest.json").exists():
-        val = part_patches(data / "val", plate, limit=cfg.val_episodes, **opts)
-    else:
-        cut = len(train) - max(1, len(train) // 10)
-        train, val = (Patches(train.inputs[:cut], train.targets[:cut]),
-                      Patches(train.inputs[cut:], train.targets[cut:]))
-    read_seconds = time.perf_counter() - t0
-    model = ReconstructionNet(cfg.channels, INPUT_CHANNELS, plate.shape[:2], cfg.head_init_std)
-    model.plate.copy_(torch.from_numpy(plate))
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "config.json").write_text(json.dumps(cfg.to_dict(), indent=1) + "\n", "utf-8")
-    best = out / "best.pt"
-
-    def on_best() -> None:
-        save_checkpoint(best, MODEL_ID, cfg.to_dict(), [], model.state_dict(),
-                        {"seed": seed, "data": str(data)})
-
-    stage = Stage("reconstruct", cfg.epochs, torch.arange(len(train)),
-                  lambda: list(model.parameters()),
-                  lambda rows: _region_l1(model, train, rows), cfg.lr, cfg.batch_size,
-                  uses_splitter=True)  # every epoch runs the model as it is used
-    state = train_stages(model, [stage], out, seed=seed,
-                         validate=lambda _stage: val_region_ssim(model, val),
-                         on_best=on_best, quiet=quiet, score_name="val region SSIM")
-    n_params = sum(p.numel() for p in model.parameters())
-    card = {
-        "model": MODEL_ID,
-        "training_data": f"{len(train)} windows ({cfg.patch}x{cfg.patch}) around the moved "
-                         f"boxes of every step of the first {cfg.train_episodes or 'all'} "
-                         f"episodes of {data / 'train'}; selection on {len(val)} windows of val",
-        "train_seconds": round(state.seconds, 1), "read_seconds": round(read_seconds, 1),
-        "wall_seconds": round(time.perf_counter() - t0, 1),
-        "parameters": n_params, "best_val_region_ssim": round(state.best, 4), "seed": seed,
-        "threads": cfg.threads,
-        "supervision": "the render after each step (target), the renders and gold amodal "
-                       "boxes before and after it (inputs at training time)",
-        "inputs": "image before the step; boxes of the objects the step moved, before and "
-                  "after it (rasterised masks, and the non-learned paste composite); the "
-                  "plate (median of training images, stored in the checkpoint)",
-        "config": cfg.to_dict(),
-    }
-    write_card(out / "card.json", card)
-    return best
-
-
-class ReconstructionPredictor:
-    """A loaded reconstruction network: the image after a step from the image before it."""
+class ReconstructionPredictor(LearnedModel):
+    """``reconstruction-v1``: trains on the renders of ``data/train``, selects on
+    ``data/val`` (a split without a val part selects on the last tenth of the train
+    episodes read); makes the image after a step from the image before it (:meth:`step`,
+    :meth:`chain`; ``nsrmp-bench reconstruct`` runs it over a predictions file)."""
 
     model_id = MODEL_ID
+    kind = Kind.RECONSTRUCTION
+    config_cls: ClassVar[type[ModelConfig]] = ReconstructionConfig
+    supervision = ("the render after each step (target), the renders and gold amodal "
+                   "boxes before and after it (inputs at training time)")
+    inputs = ("image before the step; boxes of the objects the step moved, before and "
+              "after it (rasterised masks, and the non-learned paste composite); the "
+              "plate (median of training images, stored in the checkpoint)")
+    tiny_overrides: ClassVar[dict[str, object]] = {
+        "channels": 8, "patch": 32, "epochs": 3, "batch_size": 16, "train_episodes": 0,
+        "val_episodes": 0, "plate_episodes": 16}
+    config: ReconstructionConfig
+    model: ReconstructionNet
 
-    def __init__(self, checkpoint: str | Path) -> None:
-        payload = load_checkpoint(checkpoint, MODEL_ID)
-        self.config = ReconstructionConfig.from_dict(payload["config"])
-        plate = payload["state"]["plate"]
-        self.model = ReconstructionNet(self.config.channels, INPUT_CHANNELS,
-                                       tuple(plate.shape[:2]))
-        self.model.load_state_dict(payload["state"])
-        self.model.eval()
-        self.checkpoint = Path(checkpoint)
+    @classmethod
+    def build_network(cls, config: ReconstructionConfig, vocab_size: int,
+                      state: Mapping[str, torch.Tensor]) -> ReconstructionNet:
+        plate = state["plate"]
+        return ReconstructionNet(config.channels, INPUT_CHANNELS,
+                                 (int(plate.shape[0]), int(plate.shape[1])))
+
+    @classmethod
+    def plan_training(cls, data: Path, config: ReconstructionConfig,
+                      seed: int) -> TrainingPlan:
+        cfg = config
+        t0 = time.perf_counter()
+        plate = background_plate(data / "train", cfg.plate_episodes)
+        opts = {"patch": cfg.patch, "margin": cfg.margin}
+        train = part_patches(data / "train", plate, limit=cfg.train_episodes, **opts)
+        if (data / "val" / "manifest.json").exists():
+            val = part_patches(data / "val", plate, limit=cfg.val_episodes, **opts)
+        else:
+            cut = len(train) - max(1, len(train) // 10)
+            train, val = (Patches(train.inputs[:cut], train.targets[:cut]),
+                          Patches(train.inputs[cut:], train.targets[cut:]))
+        read_seconds = time.perf_counter() - t0
+        model = ReconstructionNet(cfg.channels, INPUT_CHANNELS, plate.shape[:2],
+                                  cfg.head_init_std)
+        model.plate.copy_(torch.from_numpy(plate))
+        stage = Stage("reconstruct", cfg.epochs, torch.arange(len(train)),
+                      lambda: list(model.parameters()),
+                      lambda rows: _region_l1(model, train, rows), cfg.lr, cfg.batch_size,
+                      uses_splitter=True)  # every epoch runs the model as it is used
+        return TrainingPlan(
+            network=model, stages=[stage],
+            validate=lambda _stage: val_region_ssim(model, val),
+            training_data=(f"{len(train)} windows ({cfg.patch}x{cfg.patch}) around the "
+                           "moved boxes of every step of the first "
+                           f"{cfg.train_episodes or 'all'} episodes of {data / 'train'}; "
+                           f"selection on {len(val)} windows of val"),
+            score_name="val region SSIM", read_seconds=read_seconds)
 
     def step(self, before: NDArray[np.uint8], boxes_before: NDArray[Any],
              boxes_after: NDArray[Any]) -> NDArray[np.uint8]:
@@ -171,7 +149,7 @@ class ReconstructionPredictor:
         h, w = before.shape[:2]
         ph, pw = -h % 4, -w % 4  # pad to multiples of 4 (edge pixels), crop back
         t = torch.from_numpy(np.pad(x, ((0, 0), (0, ph), (0, pw)), mode="edge"))[None]
-        torch.set_num_threads(self.config.threads)
+        self.set_threads()
         with torch.no_grad():
             y = self.model(t)[0, :, :h, :w]
         out: NDArray[np.uint8] = (y * 255.0).round().to(torch.uint8).permute(1, 2, 0).numpy()

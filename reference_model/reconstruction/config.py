@@ -3,14 +3,15 @@ dataclass stored in every checkpoint."""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
+
+from nsrmp_bench.reference_model.contract import ModelConfig
 
 __all__ = ["ReconstructionConfig"]
 
 
 @dataclass(frozen=True)
-class ReconstructionConfig:
+class ReconstructionConfig(ModelConfig):
     """Everything that shapes a reconstruction run; the defaults are the shipped run's."""
 
     channels: int = 16  # width of the first U-Net level (x2, x4 below it)
@@ -25,11 +26,8 @@ class ReconstructionConfig:
     val_episodes: int = 150  # the first this many validation episodes
     threads: int = 2
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-able form."""
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> ReconstructionConfig:
-        """Inverse of :meth:`to_dict` (unknown keys are an error)."""
-        return cls(**data)
+    def validate(self) -> None:
+        """The patch is a multiple of 4 (the U-Net pools twice) and at least 8."""
+        super().validate()
+        self.require(self.patch % 4 == 0 and self.patch >= 8, "patch",
+                     "must be a multiple of 4 and at least 8")

@@ -24,27 +24,18 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from nsrmp_bench.geometry.boxes import MOVE_TOLERANCE, moved_objects
+
 __all__ = ["MOVE_TOLERANCE", "box_mask", "composite", "moved_objects", "step_inputs"]
 
 U8 = NDArray[np.uint8]
 F64 = NDArray[np.float64]
-
-MOVE_TOLERANCE = 1.0
-"""Pixels: an object moved in a step when a corner of its box moved by more than this."""
 
 INPUT_CHANNELS = 11  # composite (3), before (3), plate (3), old mask, new mask
 
 FOREGROUND_THRESHOLD = 16
 """Grey levels: a pixel of a box is the object's where some channel differs from the plate
 by more than this (the table renders the same in every scene)."""
-
-
-def moved_objects(before: NDArray[Any], after: NDArray[Any],
-                  tol: float = MOVE_TOLERANCE) -> NDArray[np.int64]:
-    """Indices of the objects whose box (``(N, 4)`` xyxy) changed by more than ``tol``."""
-    diff = np.abs(np.asarray(after, np.float64) - np.asarray(before, np.float64)).max(axis=1)
-    out: NDArray[np.int64] = np.nonzero(diff > tol)[0].astype(np.int64)
-    return out
 
 
 def _pixel_box(box: NDArray[Any], margin: float, height: int, width: int

@@ -148,9 +148,12 @@ def _records(sub: Any) -> list[tuple[int, NDArray[Any], NDArray[Any] | None]]:
 def reconstruct_file(predictions: str | Path, data: str | Path, out: str | Path, *,
                      renderer: str = "network", checkpoint: str | Path | None = None,
                      limit: int = 0, images: bool = True,
-                     progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+                     progress: Callable[[int, int], None] | None = None,
+                     sim_renderer: Callable[[], Any] | None = None) -> dict[str, Any]:
     """Reconstruct and score every record (the first ``limit``; 0: all); returns the
-    JSON written to ``out/ssim.json``."""
+    JSON written to ``out/ssim.json``. ``renderer="sim"`` renders with ``sim_renderer()``
+    (``generators.world.sim_renderer.SimRenderer``: the models do not import the
+    generators, the caller passes it)."""
     from nsrmp_bench.scoring.align import split_matches
     from nsrmp_bench.scoring.reader import read_submission
     from nsrmp_bench.storage import open as open_storage
@@ -178,14 +181,21 @@ def reconstruct_file(predictions: str | Path, data: str | Path, out: str | Path,
     render: Any
     sim = None
     if renderer == "sim":
-        from nsrmp_bench.reference_model.reconstruction.sim import SimRenderer
-
-        sim = SimRenderer()
+        if sim_renderer is None:
+            msg = ("renderer 'sim' needs the PyBullet renderer: pass sim_renderer="
+                   "nsrmp_bench.generators.world.sim_renderer.SimRenderer (the CLI does)")
+            raise InvalidArgument(msg)
+        sim = sim_renderer()
         render = sim.chain
     else:
-        from nsrmp_bench.reference_model.registry import load_model
+        from nsrmp_bench.reference_model.checkpoints import shipped_checkpoint
+        from nsrmp_bench.reference_model.reconstruction import (
+            MODEL_ID,
+            ReconstructionPredictor,
+        )
 
-        net = load_model("reconstruction-v1", checkpoint)
+        net = ReconstructionPredictor.from_checkpoint(
+            checkpoint if checkpoint is not None else shipped_checkpoint(MODEL_ID))
 
         def render(ep: Any, steps: NDArray[Any], _pos: Any) -> list[U8]:
             r = ep.rendering

@@ -53,7 +53,7 @@ def test_one_replayed_episode(benchmark: Any, world: Any) -> None:
     from nsrmp_bench.episode import Episode
     from nsrmp_bench.generators.replay.episode import PredictedPlacement, replay_episode
     from nsrmp_bench.geometry.default_camera import OFFICIAL_CAMERA
-    from nsrmp_bench.scoring.projection import states_boxes
+    from nsrmp_bench.geometry.projection import states_boxes
 
     ep = sample_episode(EpisodeConfig(objects=8, steps=3), ENTROPY, 1, "bench/1")
     boxes = states_boxes(OFFICIAL_CAMERA, ep.scene.objects, ep.states)[-1]

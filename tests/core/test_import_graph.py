@@ -62,3 +62,78 @@ def test_no_import_cycle_within(package: str) -> None:
              for m, ts in graph.items() if m.startswith(package + ".")}
     cycles = [c for m in sorted(inner) if (c := _cycle_through(inner, m))]
     assert not cycles, f"import cycles in {package}: {cycles[0]}"
+
+
+# The layers of DESIGN.md (also pyproject's [tool.importlinter] contracts, checked over the
+# installed namespace by scripts/lint_imports_installed.sh). Read here from the source
+# folders as the build maps them, every import counted: module level, inside functions,
+# and importlib.import_module / __import__ of a literal name.
+REPO = ROOT.parent
+FOLDERS = {"nsrmp_bench": REPO / "nsrmp_bench",
+           "nsrmp_bench.generators": REPO / "generators",
+           "nsrmp_bench.reference_model": REPO / "reference_model"}
+CORE_EXCEPT = ("nsrmp_bench.cli",)  # the command line is the application: it imports all
+FORBIDDEN = {
+    "core": ("nsrmp_bench.generators", "nsrmp_bench.reference_model", "nsrmp_bench.cli"),
+    "nsrmp_bench.generators": ("nsrmp_bench.reference_model", "nsrmp_bench.results",
+                               "nsrmp_bench.cli"),
+    "nsrmp_bench.reference_model": ("nsrmp_bench.generators", "nsrmp_bench.cli"),
+}
+
+
+def _imports(path: Path) -> list[tuple[int, str]]:
+    """(line, module) of every import in ``path``, importlib calls of literals included."""
+    found: list[tuple[int, str]] = []
+    for node in ast.walk(ast.parse(path.read_text("utf-8"))):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            found += [(node.lineno, f"{node.module}.{a.name}") for a in node.names]
+        elif isinstance(node, ast.Call) and node.args:
+            f = node.func
+            name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", "")
+            arg = node.args[0]
+            if (name in ("import_module", "__import__") and isinstance(arg, ast.Constant)
+                    and isinstance(arg.value, str)):
+                found.append((node.lineno, arg.value))
+    return found
+
+
+def _layer(module: str) -> str | None:
+    for layer in ("nsrmp_bench.generators", "nsrmp_bench.reference_model"):
+        if module == layer or module.startswith(layer + "."):
+            return layer
+    if any(module == c or module.startswith(c + ".") for c in CORE_EXCEPT):
+        return None
+    return "core" if module.startswith("nsrmp_bench.") else None
+
+
+def _sources() -> list[tuple[str, Path]]:
+    out = []
+    for package, folder in FOLDERS.items():
+        for path in folder.rglob("*.py"):
+            rel = path.relative_to(folder).with_suffix("").parts
+            if package == "nsrmp_bench" and rel and rel[0] in ("generators", "reference_model"):
+                continue
+            parts = [p for p in rel if p != "__init__"]
+            out.append((".".join([package, *parts]), path))
+    return out
+
+
+def test_layers_of_the_design_hold() -> None:
+    broken = []
+    for module, path in _sources():
+        layer = _layer(module)
+        if layer is None:
+            continue
+        for line, target in _imports(path):
+            if any(target == f or target.startswith(f + ".") for f in FORBIDDEN[layer]):
+                broken.append(f"{module} (line {line}) imports {target}")
+    assert not broken, "layer violations:\n" + "\n".join(broken)
+
+
+def test_the_layer_check_sees_hidden_imports(tmp_path: Path) -> None:
+    src = tmp_path / "m.py"
+    src.write_text("import importlib\n\ndef f():\n"
+                   "    return importlib.import_module('nsrmp_bench.generators.templates')\n")
+    assert (4, "nsrmp_bench.generators.templates") in _imports(src)

@@ -40,11 +40,11 @@ def oracle_file(smoke_test: Path, tmp_path_factory: pytest.TempPathFactory) -> P
 def _train(root: Path, out: Path, **changes: object) -> Path:
     from nsrmp_bench.reference_model.reconstruction import (
         ReconstructionConfig,
-        train_reconstruction,
+        ReconstructionPredictor,
     )
 
     cfg = ReconstructionConfig(**{**TINY, **changes})  # type: ignore[arg-type]
-    return train_reconstruction(root, out, seed=0, config=cfg, quiet=True)
+    return ReconstructionPredictor.train(root, out, seed=0, config=cfg, quiet=True)
 
 
 def _region_ssim(images: np.ndarray, gold: np.ndarray, inputs: np.ndarray) -> float:
@@ -61,7 +61,7 @@ def _outputs(checkpoint: Path, smoke: Path) -> tuple[np.ndarray, np.ndarray, np.
     from nsrmp_bench.reference_model.reconstruction import ReconstructionPredictor
     from nsrmp_bench.reference_model.reconstruction.data import part_patches
 
-    pred = ReconstructionPredictor(checkpoint)
+    pred = ReconstructionPredictor.from_checkpoint(checkpoint)
     patches = part_patches(smoke, pred.model.plate.numpy(), limit=0, patch=32,
                            margin=pred.config.margin)
     with torch.no_grad():
@@ -92,12 +92,12 @@ def test_tiny_training_learns(smoke_root: Path, smoke_test: Path, tmp_path: Path
 def test_same_seed_same_bytes(smoke_root: Path, tmp_path: Path) -> None:
     from nsrmp_bench.reference_model.reconstruction import (
         ReconstructionConfig,
-        train_reconstruction,
+        ReconstructionPredictor,
     )
 
     cfg = ReconstructionConfig(**{**TINY, "epochs": 2})  # type: ignore[arg-type]
-    a = train_reconstruction(smoke_root, tmp_path / "a", seed=3, config=cfg, quiet=True)
-    b = train_reconstruction(smoke_root, tmp_path / "b", seed=3, config=cfg, quiet=True)
+    a = ReconstructionPredictor.train(smoke_root, tmp_path / "a", seed=3, config=cfg, quiet=True)
+    b = ReconstructionPredictor.train(smoke_root, tmp_path / "b", seed=3, config=cfg, quiet=True)
     assert a.read_bytes() == b.read_bytes()
 
 
@@ -129,10 +129,11 @@ def test_shipped_checkpoint_reconstructs_smoke(oracle_file: Path, smoke_test: Pa
 def test_sim_renderer_reproduces_gold(oracle_file: Path, smoke_test: Path,
                                       tmp_path: Path) -> None:
     """PyBullet at the oracle's positions gives back the stored renders (the reference row)."""
+    from nsrmp_bench.generators.world.sim_renderer import SimRenderer
     from nsrmp_bench.reference_model.reconstruction.reconstruct import reconstruct_file
 
     result = reconstruct_file(oracle_file, smoke_test, tmp_path, renderer="sim", limit=2,
-                              images=False)
+                              images=False, sim_renderer=SimRenderer)
     assert result["summary"]["region"] > 0.95, result["summary"]
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from site_build import BOARDS
 
+from nsrmp_bench.cli.evaluate import runners
 from nsrmp_bench.errors import InvalidArgument, UnknownId
 from nsrmp_bench.results.evaluate import find_part, official_test_parts, resolve_source
 from nsrmp_bench.results.summary import Results
@@ -21,7 +22,9 @@ SMOKE_NSRM = BOARDS / "predictions" / "smoke-v2-test--nsrm-v1.jsonl"
 
 def test_sources_are_ids_or_files_and_anything_else_is_named(tmp_path: Path) -> None:
     assert resolve_source("oracle").name == "oracle-v1"
-    assert resolve_source("nsrm").kind == "model"
+    assert resolve_source("nsrm", runners().models).kind == "model"
+    with pytest.raises(UnknownId):
+        resolve_source("nsrm")  # the core alone knows no learned model
     assert resolve_source(str(SMOKE_NSRM)).kind == "file"
     with pytest.raises(UnknownId, match=r"neither a predictions file.*baselines: oracle-v1"):
         resolve_source("oracel")

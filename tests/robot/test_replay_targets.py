@@ -19,8 +19,8 @@ from nsrmp_bench.generators.replay.plan import (
     plan_from_program,
 )
 from nsrmp_bench.geometry.default_camera import OFFICIAL_CAMERA
+from nsrmp_bench.geometry.projection import states_boxes
 from nsrmp_bench.scene import Pose, SceneObject, yaw_quaternion
-from nsrmp_bench.scoring.projection import states_boxes
 from nsrmp_bench.vocabulary import EXTENTS, TABLE_TOP_Z
 
 

@@ -18,9 +18,9 @@ from nsrmp_bench.episode import Episode, ObjectTargets, Rendering, SymbolicEpiso
 from nsrmp_bench.errors import InfeasibleStep, UnknownId
 from nsrmp_bench.generators.sampler import sample_episode
 from nsrmp_bench.geometry.default_camera import OFFICIAL_CAMERA
+from nsrmp_bench.geometry.projection import states_boxes
 from nsrmp_bench.scene import Pose, Scene
 from nsrmp_bench.scoring import load_schema, score
-from nsrmp_bench.scoring.projection import states_boxes
 
 from nsrmp_bench.baselines import BASELINES, get_baseline, run_baseline  # isort: skip
 

@@ -14,8 +14,8 @@ from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.episode import Episode, ObjectTargets, Rendering, SymbolicEpisode
 from nsrmp_bench.generators.sampler import sample_episode
 from nsrmp_bench.geometry.default_camera import OFFICIAL_CAMERA
+from nsrmp_bench.geometry.projection import states_boxes
 from nsrmp_bench.scoring import score
-from nsrmp_bench.scoring.projection import states_boxes
 
 SPLIT = "cli-v1"
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from nsrmp_bench.audit import audit
+from nsrmp_bench.audit import audit, held_out_words
 from nsrmp_bench.cli.main import main
 from nsrmp_bench.errors import DownloadError
 from nsrmp_bench.release import download, pack
@@ -113,7 +113,9 @@ def test_audit_fails_on_shared_instances(smoke_dir: Path) -> None:
     with open_data(smoke_dir / "test") as data:
         eps = [e.symbolic for e in data.iter_episodes(images=False)]
     leaked = [("smoke-v2", "test", e) for e in eps] + [("paper-v2", "test", eps[0])]
-    report = audit(leaked)
+    from nsrmp_bench.generators.templates import load_language
+
+    report = audit(leaked, held_out_words(load_language()))
     assert not report.ok
     assert report.shared["scenes"] == 1
     assert any("triples" in f for f in report.failures)

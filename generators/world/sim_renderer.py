@@ -1,4 +1,5 @@
-"""The reference row: PyBullet re-renders the predicted object locations (no network).
+"""The reconstruction's reference row (``nsrmp-bench reconstruct --renderer sim``): PyBullet
+re-renders the predicted object locations (no network).
 
 For each predicted state, every object whose box changed from the previous state is put at
 its predicted 3D centre with its initial orientation, and the scene is rendered with the
@@ -16,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nsrmp_bench.episode import Episode
-from nsrmp_bench.reference_model.reconstruction.inputs import MOVE_TOLERANCE, moved_objects
+from nsrmp_bench.geometry.boxes import MOVE_TOLERANCE, moved_objects
 
 __all__ = ["SimRenderer"]
 
