@@ -203,12 +203,15 @@ class World:
         # Renders of the empty scene per camera. Every build is the same, so they stay
         # valid from one instance to the next (render(composite=True)).
         self._scenery_cache: dict[Camera, RenderedImages] = {}
+        self._scenery_visuals = True
         self.begin(())
 
     # -- construction ------------------------------------------------------------------
-    def _build_scenery(self) -> None:
-        """Reset the simulation and load the floor, the table and the Panda."""
+    def _build_scenery(self, visuals: bool) -> None:
+        """Reset the simulation and load the floor, the table and the Panda; their visual
+        shapes only when ``visuals`` (see :meth:`begin`)."""
         pb, c = self.pb, self.client
+        flags = 0 if visuals else pb.URDF_IGNORE_VISUAL_SHAPES
         pb.resetSimulation(physicsClientId=c)
         pb.setAdditionalSearchPath(self._data_path, physicsClientId=c)
         pb.setGravity(0.0, 0.0, -9.81, physicsClientId=c)
@@ -223,9 +226,9 @@ class World:
         self.plane = None
         if self.config.floor:
             self.plane = pb.loadURDF("plane.urdf", [0.0, 0.0, 0.0], useFixedBase=True,
-                                     physicsClientId=c)
+                                     flags=flags, physicsClientId=c)
         self.table = pb.loadURDF("table/table.urdf", [0.0, 0.0, 0.0], useFixedBase=True,
-                                 physicsClientId=c)
+                                 flags=flags, physicsClientId=c)
         for static in (self.plane, self.table):
             if static is not None:
                 pb.setCollisionFilterGroupMask(static, -1, GROUP_SCENERY, GROUP_OBJECT,
@@ -234,7 +237,8 @@ class World:
         self._panda_arm = []
         self._panda_fingers = []
         if self.config.panda != "none":
-            self._load_panda()
+            self._load_panda(flags)
+        self._scenery_visuals = visuals
         # visual shapes of the table, floor and robot: (body, link, rgba), hidden while
         # the objects are rendered over a cached empty scene (render(composite=True))
         self._scenery = tuple(
@@ -242,11 +246,11 @@ class World:
             for b in (self.plane, self.table, self.panda) if b is not None
             for d in pb.getVisualShapeData(b, physicsClientId=c))
 
-    def _load_panda(self) -> None:
+    def _load_panda(self, flags: int) -> None:
         pb, c = self.pb, self.client
         orn = pb.getQuaternionFromEuler([0.0, 0.0, -math.pi / 2.0])
         body = pb.loadURDF(self._panda_urdf, list(PANDA_BASE), orn, useFixedBase=True,
-                           physicsClientId=c)
+                           flags=flags, physicsClientId=c)
         self.panda = int(body)
         for link in range(-1, pb.getNumJoints(body, physicsClientId=c)):
             pb.setCollisionFilterGroupMask(body, link, GROUP_ROBOT, GROUP_OBJECT,
@@ -258,7 +262,8 @@ class World:
                 self._panda_arm.append(j)
             elif info[2] == pb.JOINT_PRISMATIC and "finger" in name:
                 self._panda_fingers.append(j)
-        if self.config.panda == "lean":  # two-tone look of the real arm
+        if self.config.panda == "lean" and not flags & pb.URDF_IGNORE_VISUAL_SHAPES:
+            # two-tone look of the real arm
             dark = [0.25, 0.26, 0.28, 1.0]
             light = [0.93, 0.93, 0.93, 1.0]
             for link in range(-1, pb.getNumJoints(body, physicsClientId=c)):
@@ -328,15 +333,24 @@ class World:
         pb.setJointMotorControlArray(body, joints, pb.POSITION_CONTROL, targetPositions=targets,
                                      forces=[200.0] * len(joints), physicsClientId=c)
 
-    def begin(self, objects: Sequence[SceneObject]) -> tuple[int, ...]:
+    def begin(self, objects: Sequence[SceneObject], *,
+              scenery_visuals: bool = True) -> tuple[int, ...]:
         """Start an instance with ``objects``: reset the simulation, rebuild the table and
         the Panda (at rest) and create the objects' bodies, parked until :meth:`place`.
 
         Returns the bodies in scene order. Parked bodies keep falling (far away, colliding
         with nothing) rather than being put to sleep, as sleeping and waking bodies was
         measured to leak history into the results.
+
+        ``scenery_visuals=False`` loads the table, floor and Panda without their visual
+        shapes: the same bodies, collision shapes and physics, but nothing of them to
+        render. That is all a composite render over a cached background needs (it hides
+        the scenery anyway; TinyRenderer skips a zero-alpha shape as if it were absent) and
+        it halves the reset (the table's visuals decode its 0.9 MB texture five times).
+        Full renders and :meth:`prepare_background` then raise until the next ``begin``
+        with visuals.
         """
-        self._build_scenery()
+        self._build_scenery(scenery_visuals)
         bodies = self._create_objects(objects)
         n = self.pb.getNumBodies(physicsClientId=self.client)
         self._seg_lut = np.full(n + 2, -1, dtype=np.int16)  # entry 0: PyBullet's -1
@@ -482,6 +496,7 @@ class World:
         """
         cam = self.camera if camera is None else camera
         if not composite:
+            self._require_scenery_visuals("a full render (composite=False)")
             rgb, depth, seg_ids = self._raw(cam)
             return RenderedImages(rgb, depth, np.take(self._seg_lut, seg_ids + 1))
         background = self._scenery_cache.get(cam)
@@ -510,6 +525,7 @@ class World:
         cam = self.camera if camera is None else camera
         if cam in self._scenery_cache:
             return
+        self._require_scenery_visuals("prepare_background()")
         if any(self.pb.getBasePositionAndOrientation(b, physicsClientId=self.client)[0][2]
                > _PARK_ORIGIN[2] + 1.0 for b in self.bodies):
             msg = ("prepare_background() must run before any object is placed; call it "
@@ -518,6 +534,18 @@ class World:
         rgb, depth, seg_ids = self._raw(cam)
         self._scenery_cache[cam] = RenderedImages(rgb, depth, np.full_like(seg_ids, -1,
                                                                              dtype=np.int16))
+
+    def has_background(self, camera: Camera | None = None) -> bool:
+        """Whether the empty scene is cached for ``camera`` (see :meth:`prepare_background`),
+        so that composite renders need no scenery visuals."""
+        return (self.camera if camera is None else camera) in self._scenery_cache
+
+    def _require_scenery_visuals(self, what: str) -> None:
+        if not self._scenery_visuals:
+            msg = (f"{what} needs the table and the Panda visible, but this instance was "
+                   "begun with World.begin(objects, scenery_visuals=False); begin it with "
+                   "scenery_visuals=True (the default)")
+            raise InvalidArgument(msg)
 
     @contextmanager
     def _hidden(self, shapes: Sequence[tuple[int, int, tuple[float, ...]]]) -> Iterator[None]:
