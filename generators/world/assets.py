@@ -316,15 +316,21 @@ def collision_obj(src: Path, directory: Path) -> Path:
     return write_atomically(directory / f"{src.stem}_collision_{digest}.obj", data)
 
 
+_STAND_IN_VISUAL: Final = '<visual><geometry><box size="0.001 0.001 0.001"/></geometry></visual>'
+
+
 def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str], *,
-                    lean_collision: bool = True) -> Path:
+                    lean_collision: bool = True, visuals: bool = True) -> Path:
     """A Panda URDF whose visuals are its collision meshes, written into ``directory``.
 
     It is pybullet_data's ``franka_panda/panda.urdf`` with every ``package://meshes/...``
     reference made absolute and ``visual/`` meshes replaced by ``collision/`` ones: the
     kinematics, inertias and collision geometry are unchanged. ``lean_collision`` points
     the ``<collision>`` elements at :func:`collision_obj` copies of those meshes (the same
-    hulls, loaded faster).
+    hulls, loaded faster). ``visuals=False`` gives every ``<visual>`` a 1 mm box instead
+    (for a world that never draws the arm: PyBullet would otherwise tessellate the
+    collision hulls into stand-in visuals, ~1/4 of the arm's load); nothing physical
+    changes, ``tests/world/test_determinism.py`` compares the shapes and dynamics.
     """
     src = Path(data_path) / "franka_panda" / "panda.urdf"
     if not src.is_file():
@@ -339,6 +345,8 @@ def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str], *,
                           block.group(0))
 
         text = re.sub(r"<collision>.*?</collision>", lean, text, flags=re.DOTALL)
+    if not visuals:
+        text = re.sub(r"<visual>.*?</visual>", _STAND_IN_VISUAL, text, flags=re.DOTALL)
     text = text.replace("package://meshes/visual/", f"{mesh_dir}/")
     text = text.replace("package://meshes/collision/", f"{mesh_dir}/")
     data = text.encode("utf-8")

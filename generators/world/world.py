@@ -191,9 +191,15 @@ class World:
         self._assets = asset_cache_dir(cache_dir)
         self._texture_files = ensure_dice_textures(self._assets)
         self.lean_reset = lean_reset
+        lean = self.config.panda == "lean"
         self._panda_urdf = (str(lean_panda_urdf(self._assets, self._data_path,
                                                 lean_collision=lean_reset))
-                            if self.config.panda == "lean" else "franka_panda/panda.urdf")
+                            if lean else "franka_panda/panda.urdf")
+        # the arm of an instance begun without scenery visuals: 1 mm boxes for visuals
+        # (with URDF_IGNORE_VISUAL_SHAPES PyBullet would tessellate the hulls instead)
+        self._bare_panda_urdf = (str(lean_panda_urdf(self._assets, self._data_path,
+                                                     visuals=False))
+                                 if lean and lean_reset else None)
         pb = self.pb
         self.client: int = pb.connect(pb.DIRECT)
         if self.client < 0:
@@ -259,8 +265,11 @@ class World:
     def _load_panda(self, flags: int) -> None:
         pb, c = self.pb, self.client
         orn = pb.getQuaternionFromEuler([0.0, 0.0, -math.pi / 2.0])
-        body = pb.loadURDF(self._panda_urdf, list(PANDA_BASE), orn, useFixedBase=True,
-                           flags=flags, physicsClientId=c)
+        urdf = self._panda_urdf
+        if flags & pb.URDF_IGNORE_VISUAL_SHAPES and self._bare_panda_urdf is not None:
+            urdf, flags = self._bare_panda_urdf, flags & ~pb.URDF_IGNORE_VISUAL_SHAPES
+        body = pb.loadURDF(urdf, list(PANDA_BASE), orn, useFixedBase=True, flags=flags,
+                           physicsClientId=c)
         self.panda = int(body)
         for link in range(-1, pb.getNumJoints(body, physicsClientId=c)):
             pb.setCollisionFilterGroupMask(body, link, GROUP_ROBOT, GROUP_OBJECT,
@@ -272,7 +281,8 @@ class World:
                 self._panda_arm.append(j)
             elif info[2] == pb.JOINT_PRISMATIC and "finger" in name:
                 self._panda_fingers.append(j)
-        if self.config.panda == "lean" and not flags & pb.URDF_IGNORE_VISUAL_SHAPES:
+        if self.config.panda == "lean" and urdf == self._panda_urdf and not (
+                flags & pb.URDF_IGNORE_VISUAL_SHAPES):
             # two-tone look of the real arm
             dark = [0.25, 0.26, 0.28, 1.0]
             light = [0.93, 0.93, 0.93, 1.0]
