@@ -19,6 +19,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+import re
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,6 +40,7 @@ __all__ = [
     "OBJECT_DYNAMICS",
     "ShapeIds",
     "asset_cache_dir",
+    "collision_obj",
     "create_shape_ids",
     "dice_mesh",
     "dice_texture",
@@ -290,12 +292,45 @@ def create_shape_ids(pb: Any, client: int, shape: str) -> ShapeIds:
 
 
 # -- the lean Panda --------------------------------------------------------------------
-def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str]) -> Path:
+def collision_obj(src: Path, directory: Path) -> Path:
+    """The part of the Wavefront file ``src`` that Bullet's collision import reads, written
+    into ``directory`` (named by its content's hash).
+
+    A ``<collision>`` mesh becomes one convex hull per ``o``/``g`` group, built from the
+    ``v`` positions its faces index, face by face; normals, texture coordinates and
+    materials are read and thrown away. The copy keeps every ``v``, ``o`` and ``g`` line
+    verbatim and every face with its position indices only, so the hulls get the same
+    points in the same order (the same shapes, bit for bit: ``tests/world``) from a file
+    that parses in about half the time.
+    """
+    out: list[str] = []
+    for line in src.read_text("utf-8").splitlines():
+        token = line.lstrip(" \t")
+        head = token[:2]
+        if head in ("v ", "v\t", "o ", "o\t", "g ", "g\t"):
+            out.append(token)
+        elif head in ("f ", "f\t"):
+            out.append("f " + " ".join(t.split("/", 1)[0] for t in token[2:].split()))
+    data = ("\n".join(out) + "\n").encode("utf-8")
+    digest = hashlib.sha256(data).hexdigest()[:16]
+    return write_atomically(directory / f"{src.stem}_collision_{digest}.obj", data)
+
+
+_STAND_IN_VISUAL: Final = '<visual><geometry><box size="0.001 0.001 0.001"/></geometry></visual>'
+
+
+def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str], *,
+                    lean_collision: bool = True, visuals: bool = True) -> Path:
     """A Panda URDF whose visuals are its collision meshes, written into ``directory``.
 
     It is pybullet_data's ``franka_panda/panda.urdf`` with every ``package://meshes/...``
     reference made absolute and ``visual/`` meshes replaced by ``collision/`` ones: the
-    kinematics, inertias and collision geometry are unchanged.
+    kinematics, inertias and collision geometry are unchanged. ``lean_collision`` points
+    the ``<collision>`` elements at :func:`collision_obj` copies of those meshes (the same
+    hulls, loaded faster). ``visuals=False`` gives every ``<visual>`` a 1 mm box instead
+    (for a world that never draws the arm: PyBullet would otherwise tessellate the
+    collision hulls into stand-in visuals, ~1/4 of the arm's load); nothing physical
+    changes, ``tests/world/test_determinism.py`` compares the shapes and dynamics.
     """
     src = Path(data_path) / "franka_panda" / "panda.urdf"
     if not src.is_file():
@@ -303,6 +338,15 @@ def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str]) -> Path:
         raise FileNotFoundError(msg)
     text = src.read_text("utf-8")
     mesh_dir = (Path(data_path) / "franka_panda" / "meshes" / "collision").resolve()
+    if lean_collision:
+        def lean(block: re.Match[str]) -> str:
+            return re.sub(r'package://meshes/collision/([^"]+)',
+                          lambda m: str(collision_obj(mesh_dir / m.group(1), directory)),
+                          block.group(0))
+
+        text = re.sub(r"<collision>.*?</collision>", lean, text, flags=re.DOTALL)
+    if not visuals:
+        text = re.sub(r"<visual>.*?</visual>", _STAND_IN_VISUAL, text, flags=re.DOTALL)
     text = text.replace("package://meshes/visual/", f"{mesh_dir}/")
     text = text.replace("package://meshes/collision/", f"{mesh_dir}/")
     data = text.encode("utf-8")

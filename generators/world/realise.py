@@ -310,7 +310,10 @@ def realise(
         msg = f"min_visible must be a fraction in [0, 1], got {min_visible}"
         raise InvalidArgument(msg)
 
-    world.begin(scene.objects)
+    # the scenery is drawn only into the cached background: once cached, composite
+    # renders hide it, so it is loaded without visuals (same physics, half the reset)
+    world.begin(scene.objects,
+                scenery_visuals=render and not (composite and world.has_background(cam)))
     if composite and render:
         world.prepare_background(cam)
     extents = np.array([o.extents for o in scene.objects], dtype=np.float64).reshape(n, 3)

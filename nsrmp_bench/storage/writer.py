@@ -4,13 +4,23 @@ A :class:`ShardWriter` writes ``shard-AAAAAAA-BBBBBBB.h5.tmp``, flushes after ev
 episode, and on :meth:`ShardWriter.commit` closes, fsyncs, renames the file to its final
 name and then writes its record (``.record.json``). A killed writer leaves only ``*.tmp``
 files, which :func:`~nsrmp_bench.storage.resume.scan_output` removes.
+
+With ``background=True`` (the default) hashing, compressing and writing run on one writer
+thread, in the order episodes were added, while the caller makes the next episode. The
+image chunks are then compressed by Python's ``zlib`` (which lets go of the GIL, unlike
+HDF5's own filter called through h5py) and stored with ``write_direct_chunk``: the same
+filters (byte shuffle for float images, then DEFLATE level 1, the same libz), so the same
+bytes on disk, which ``tests/storage`` checks against the synchronous writer.
 """
 
 from __future__ import annotations
 
 import json
 import os
-from collections.abc import Mapping
+import queue
+import threading
+import zlib
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -53,8 +63,43 @@ def _put_array(group: h5py.Group, name: str, arr: NDArray[Any], kw: Mapping[str,
     group.create_dataset(name, data=arr, track_times=False, **kw)
 
 
-def write_episode_group(parent: h5py.Group, episode: Episode, index: int, ehash: str) -> None:
-    """Write one episode as ``parent/<id>`` in the layout of :mod:`~nsrmp_bench.storage.layout`."""
+def _filtered_chunk(chunk: NDArray[Any], kw: Mapping[str, Any]) -> bytes:
+    """``chunk`` through the filter pipeline of an :func:`image_codec` dataset: byte
+    shuffle (when ``kw["shuffle"]``), then DEFLATE at ``kw["compression_opts"]``, as
+    HDF5's H5Z_SHUFFLE and H5Z_DEFLATE (``compress2``) do."""
+    data = np.ascontiguousarray(chunk)
+    if kw.get("shuffle") and data.size > 1:
+        raw = data.view(np.uint8).reshape(data.size, data.dtype.itemsize).T.tobytes()
+    else:
+        raw = data.tobytes()
+    return zlib.compress(raw, int(kw["compression_opts"]))
+
+
+def _put_image(group: h5py.Group, name: str, arr: NDArray[Any], kw: Mapping[str, Any],
+               direct: bool) -> None:
+    """An :func:`image_codec` dataset, compressed by HDF5 or (``direct``) chunk by chunk
+    here, with the same filters and so the same bytes."""
+    if not direct or kw.get("compression") != "gzip":
+        _put_array(group, name, arr, kw)
+        return
+    ds = group.create_dataset(name, shape=arr.shape, dtype=arr.dtype, track_times=False, **kw)
+    chunks = tuple(kw["chunks"])
+    if chunks == arr.shape:
+        ds.id.write_direct_chunk((0,) * arr.ndim, _filtered_chunk(arr, kw))
+        return
+    if chunks != (1, *arr.shape[1:]):
+        msg = f"direct chunk writes take one image or one image per chunk, got chunks {chunks}"
+        raise InvalidArgument(msg)
+    for k in range(arr.shape[0]):
+        ds.id.write_direct_chunk((k,) + (0,) * (arr.ndim - 1), _filtered_chunk(arr[k:k + 1], kw))
+
+
+def write_episode_group(parent: h5py.Group, episode: Episode, index: int, ehash: str, *,
+                        direct_chunks: bool = False) -> None:
+    """Write one episode as ``parent/<id>`` in the layout of :mod:`~nsrmp_bench.storage.layout`.
+
+    ``direct_chunks`` compresses the images here rather than in HDF5 (same bytes; Python's
+    zlib runs without the GIL, so another thread can work meanwhile)."""
     sym = episode.symbolic
     arrays = episode_arrays(episode)
     g = create_group(parent, check_episode_id(sym.id))
@@ -86,10 +131,13 @@ def write_episode_group(parent: h5py.Group, episode: Episode, index: int, ehash:
         for key in ("rgb", "depth"):
             arr = arrays[f"observations/{key}"]
             first, later = arr[0], arr[1:]
-            _put_array(in_obs, key, first, image_codec(first.shape, first.dtype, stacked=False))
-            _put_array(tg_obs, key, later, image_codec(later.shape, later.dtype, stacked=True))
+            _put_image(in_obs, key, first, image_codec(first.shape, first.dtype, stacked=False),
+                       direct_chunks)
+            _put_image(tg_obs, key, later, image_codec(later.shape, later.dtype, stacked=True),
+                       direct_chunks)
         seg = arrays["observations/segmentation"]
-        _put_array(tg_obs, "segmentation", seg, image_codec(seg.shape, seg.dtype, stacked=True))
+        _put_image(tg_obs, "segmentation", seg, image_codec(seg.shape, seg.dtype, stacked=True),
+                   direct_chunks)
     if r is not None:
         for key in ("boxes_amodal", "boxes_visible"):
             _put_array(inputs, key, arrays[f"targets/{key}"][0], small_codec())
@@ -109,6 +157,11 @@ class ShardWriter:
     Use as a context manager; episodes must come in index order (``seed.index`` is the
     instance index). Leaving the block normally commits, an exception aborts (removes the
     ``.tmp``). A committed shard has its final name and a ``.record.json`` next to it.
+
+    ``background=True`` (the default) hashes and writes on a writer thread (at most
+    ``queue_size`` episodes wait for it; :meth:`add` returns at once); an error there is
+    raised by the next :meth:`add` or by :meth:`commit`. ``background=False`` does it all
+    in :meth:`add`. Both write the same bytes.
     """
 
     def __init__(
@@ -119,7 +172,12 @@ class ShardWriter:
         *,
         split: str,
         package_version: str = __version__,
+        background: bool = True,
+        queue_size: int = 2,
     ) -> None:
+        if queue_size < 1:
+            msg = f"ShardWriter queue_size must be at least 1, got {queue_size}"
+            raise InvalidArgument(msg)
         self.out_dir = Path(out_dir)
         self.start, self.stop = start, stop
         self.file = shard_filename(start, stop)
@@ -136,14 +194,61 @@ class ShardWriter:
         self._f.attrs["format"] = FORMAT
         self._f.attrs["schema_version"] = SCHEMA_VERSION
         self._data = create_group(self._f, "data")
+        self._jobs: queue.Queue[Callable[[], None] | None] | None = None
+        self._thread: threading.Thread | None = None
+        self._error: BaseException | None = None
+        if background:
+            self._jobs = queue.Queue(maxsize=queue_size)
+            self._thread = threading.Thread(target=self._drain, name=f"writer {self.file}",
+                                            daemon=True)
+            self._thread.start()
+
+    def _drain(self) -> None:
+        """The writer thread: run the queued jobs in order; after an error, skip the rest."""
+        assert self._jobs is not None
+        while True:
+            job = self._jobs.get()
+            if job is None:
+                return
+            if self._error is None:
+                try:
+                    job()
+                except BaseException as exc:  # re-raised in the caller's thread
+                    self._error = exc
+
+    def _wait(self) -> None:
+        """Stop the writer thread once it has written everything queued; re-raise its
+        error, if any."""
+        if self._thread is not None and self._jobs is not None:
+            self._jobs.put(None)
+            self._thread.join()
+            self._thread = None
+        self._raise_error()
+
+    def _raise_error(self) -> None:
+        if self._error is not None:
+            msg = f"writing shard {self.file} failed: {self._error}"
+            raise RuntimeError(msg) from self._error
+
+    def _write(self, episode: Episode, index: int) -> None:
+        """Hash and write one episode (on the writer thread when in the background)."""
+        assert self._f is not None
+        ehash = episode_hash(episode)
+        write_episode_group(self._data, episode, index, ehash,
+                            direct_chunks=self._thread is not None)
+        self._f.flush()
+        self._entries.append(EpisodeEntry(index, episode.id, ehash,
+                                          episode.symbolic.categories(),
+                                          tolerant_summary(episode)))
 
     @property
     def next_index(self) -> int:
         """The instance index the next episode must have."""
         return self._next
 
-    def add(self, episode: Episode) -> str:
-        """Write one episode (then flush); returns its content hash."""
+    def add(self, episode: Episode) -> None:
+        """Write one episode (then flush), or queue it for the writer thread."""
+        self._raise_error()
         if self._f is None:
             msg = f"shard {self.file} is already committed or aborted; open a new ShardWriter"
             raise InvalidArgument(msg)
@@ -157,24 +262,26 @@ class ShardWriter:
         if index >= self.stop:
             msg = f"shard {self.file} covers indices [{self.start}, {self.stop}); got {index}"
             raise InvalidArgument(msg)
-        ehash = episode_hash(episode)
-        write_episode_group(self._data, episode, index, ehash)
-        self._f.flush()
-        self._entries.append(EpisodeEntry(index, episode.id, ehash,
-                                          episode.symbolic.categories(),
-                                          tolerant_summary(episode)))
+        if self._jobs is not None:
+            self._jobs.put(lambda: self._write(episode, index))
+        else:
+            self._write(episode, index)
         self._generators.append(episode.symbolic.generator)
         if self._camera is None and episode.rendering is not None:
             self._camera = canonical_json(episode.rendering.camera.to_dict())
         self._next += 1
-        return ehash
 
     def commit(self) -> ShardRecord:
         """Finish the file, fsync, rename to its final name, write its record."""
-        f = self._f
-        if f is None:
+        if self._f is None:
             msg = f"shard {self.file} is already committed or aborted"
             raise InvalidArgument(msg)
+        try:
+            self._wait()
+        except BaseException:
+            self.abort()
+            raise
+        f = self._f
         if self._next != self.stop:
             msg = (
                 f"shard {self.file} covers indices [{self.start}, {self.stop}) but holds "
@@ -220,6 +327,11 @@ class ShardWriter:
 
     def abort(self) -> None:
         """Close and remove the partial file."""
+        if self._thread is not None and self._jobs is not None:
+            self._error = self._error or RuntimeError("aborted")  # skip what is queued
+            self._jobs.put(None)
+            self._thread.join()
+            self._thread = None
         if self._f is not None:
             self._f.close()
             self._f = None

@@ -85,3 +85,29 @@ def test_an_instance_realised_after_another_equals_it_realised_first() -> None:
     with World() as fresh:
         first = episode_hash(make_episode(spec, "test", 643, fresh))
     assert second == first
+
+
+def test_the_lean_reset_loads_the_same_collision_shapes() -> None:
+    """The Panda's collision meshes read from copies that hold only what Bullet's collision
+    import reads, and 1 mm boxes for its visuals, give the same hulls (vertices in the
+    same order), boxes, dynamics and joints as the shipped files."""
+    from nsrmp_bench.generators.world.world import World
+
+    def shapes(world: World) -> list[object]:
+        pb, c, body = world.pb, world.client, world.panda
+        out: list[object] = []
+        for link in range(-1, pb.getNumJoints(body, physicsClientId=c)):
+            out.append(pb.getMeshData(body, link, physicsClientId=c))
+            out.append(pb.getAABB(body, link, physicsClientId=c))
+            out.append(pb.getDynamicsInfo(body, link, physicsClientId=c))
+            if link >= 0:
+                out.append(pb.getJointInfo(body, link, physicsClientId=c))
+        return out
+
+    with World(lean_reset=False) as shipped, World() as lean:
+        lean.begin((), scenery_visuals=False)
+        assert lean.panda is not None
+        assert shapes(lean) == shapes(shipped)
+        meshes = [m for m in shapes(lean) if isinstance(m, tuple) and len(m) == 2
+                  and isinstance(m[1], tuple) and m[1] and isinstance(m[1][0], tuple)]
+        assert sum(len(m[1]) for m in meshes) > 1000  # the hulls' vertices were compared

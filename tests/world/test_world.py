@@ -164,3 +164,20 @@ def test_composite_render_needs_a_prepared_background(world: Any) -> None:
     world.begin(())
     with pytest.raises(InvalidArgument, match="prepare_background"):
         world.render(cam, composite=True)
+
+
+def test_a_world_begun_without_scenery_visuals_refuses_full_renders() -> None:
+    from nsrmp_bench.generators.world.world import World
+
+    with World() as world:
+        world.begin((), scenery_visuals=False)
+        assert not world.has_background()
+        with pytest.raises(InvalidArgument, match="scenery_visuals=False"):
+            world.render()
+        with pytest.raises(InvalidArgument, match="scenery_visuals=False"):
+            world.prepare_background()
+        world.begin(())
+        world.prepare_background()
+        assert world.has_background()
+        world.begin((), scenery_visuals=False)
+        world.render(composite=True)  # over the cached background: fine
