@@ -1,0 +1,110 @@
+"""Policies for the closed-loop environment, and how a policy is named on the command line.
+
+A policy is any callable ``policy(observation) -> action`` (the actions of
+:mod:`nsrmp_bench.envs.tabletop`). If it also has a ``reset(observation, info)`` method,
+that is called at the start of every episode. Named policies:
+
+* ``oracle``: the gold grounded program, one DSL step per move, then done. It reads the
+  gold program from the environment (privileged: the upper bound, as ``oracle-v1``).
+* ``noop``: says done at once (the floor).
+* ``module:function``: any importable callable, e.g. ``my_pkg.policies:greedy``. A class
+  is instantiated with no arguments. Example::
+
+      # my_policy.py
+      def policy(observation):
+          return {"done": 1}
+
+      nsrmp-bench rollout my_policy:policy --data data/smoke/test --out p.jsonl
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+from collections.abc import Callable
+from typing import Any, Protocol
+
+from nsrmp_bench.errors import InvalidArgument
+
+__all__ = ["NAMED_POLICIES", "NoopPolicy", "OraclePolicy", "Policy", "check_policy",
+           "make_policy"]
+
+
+class Policy(Protocol):
+    """What a rollout calls: the next action for an observation."""
+
+    def __call__(self, observation: dict[str, Any]) -> Any: ...
+
+
+class OraclePolicy:
+    """The gold program, one step per move, then done (reads the gold from ``env``)."""
+
+    def __init__(self, env: Any) -> None:
+        self.env = env.unwrapped
+        self._k = 0
+
+    def reset(self, observation: dict[str, Any], info: dict[str, Any]) -> None:
+        """Start the instance's program from its first step."""
+        self._k = 0
+
+    def __call__(self, observation: dict[str, Any]) -> dict[str, Any]:
+        program = self.env.episode.symbolic.grounded
+        if self._k >= len(program):
+            return {"done": 1}
+        step = program[self._k]
+        self._k += 1
+        return {"step": (step.action, step.subject, step.reference)}
+
+
+class NoopPolicy:
+    """Says done at once: the scene stays as it is."""
+
+    def __call__(self, observation: dict[str, Any]) -> dict[str, Any]:
+        return {"done": 1}
+
+
+NAMED_POLICIES: dict[str, Callable[[Any], Policy]] = {
+    "oracle": OraclePolicy,
+    "noop": lambda env: NoopPolicy(),
+}
+"""Policy name -> factory taking the environment."""
+
+
+def check_policy(name: str) -> None:
+    """Raise :class:`InvalidArgument` unless ``name`` names a policy (imports it)."""
+    if name not in NAMED_POLICIES:
+        _load(name)
+
+
+def make_policy(name: str, env: Any) -> Policy:
+    """The policy ``name`` (a named policy or ``module:function``) for ``env``."""
+    if name in NAMED_POLICIES:
+        return NAMED_POLICIES[name](env)
+    return _load(name)
+
+
+def _load(name: str) -> Policy:
+    module_name, sep, attr = name.partition(":")
+    if not sep or not module_name or not attr:
+        msg = (f"unknown policy {name!r}; use one of {sorted(NAMED_POLICIES)} or "
+               "'module:function' naming a callable policy(observation) -> action")
+        raise InvalidArgument(msg)
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        msg = (f"policy {name!r}: module {module_name!r} cannot be imported ({exc}); put it "
+               "on PYTHONPATH or install it")
+        raise InvalidArgument(msg) from exc
+    obj: Any = module
+    for part in attr.split("."):
+        if not hasattr(obj, part):
+            msg = f"policy {name!r}: {module_name!r} has no attribute {attr!r}"
+            raise InvalidArgument(msg)
+        obj = getattr(obj, part)
+    if inspect.isclass(obj):
+        obj = obj()
+    if not callable(obj):
+        msg = f"policy {name!r} is a {type(obj).__name__}, not a callable"
+        raise InvalidArgument(msg)
+    policy: Policy = obj
+    return policy
