@@ -70,11 +70,13 @@ def test_card_names_the_split_and_its_parts(exported: Path) -> None:
 
 def test_a_non_empty_target_is_refused_and_a_failed_export_leaves_nothing(
         smoke_v2_root: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from nsrmp_bench.export.hf import export_hf
+
     busy = tmp_path / "busy"
     busy.mkdir()
     (busy / "old.parquet").write_text("x")
     with pytest.raises(InvalidArgument, match=r"'.*busy' is not empty.*old.parquet"):
-        main(["export-hf", str(smoke_v2_root), "--out", str(busy), "--quiet"])
+        export_hf(smoke_v2_root, busy)
     from nsrmp_bench.export import hf
 
     calls = []
@@ -88,5 +90,5 @@ def test_a_non_empty_target_is_refused_and_a_failed_export_leaves_nothing(
     original = hf.episode_row
     monkeypatch.setattr(hf, "episode_row", failing)
     with pytest.raises(RuntimeError, match="disk full"):
-        main(["export-hf", str(smoke_v2_root), "--out", str(tmp_path / "new"), "--quiet"])
+        export_hf(smoke_v2_root, tmp_path / "new")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["busy"]

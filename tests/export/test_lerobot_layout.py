@@ -128,9 +128,10 @@ def test_stats_cover_every_feature(exported: Path) -> None:
 
 
 def test_a_non_empty_target_is_refused(smoke_v2_root: Path, tmp_path: Path) -> None:
+    from nsrmp_bench.export.lerobot import export_lerobot
+
     (tmp_path / "meta").mkdir()
     with pytest.raises(InvalidArgument, match=r"is not empty.*meta"):
-        main(["export-lerobot", str(smoke_v2_root), "--out", str(tmp_path), "--quiet"])
+        export_lerobot(smoke_v2_root, tmp_path)
     with pytest.raises(InvalidArgument, match="not a folder"):
-        main(["export-lerobot", str(tmp_path / "nothing"), "--out", str(tmp_path / "x"),
-              "--quiet"])
+        export_lerobot(tmp_path / "nothing", tmp_path / "x")
