@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Final
 
@@ -40,6 +41,7 @@ CROISSANT_CONTEXT: Final[dict[str, Any]] = {
     "data": {"@id": "cr:data", "@type": "@json"},
     "dataType": {"@id": "cr:dataType", "@type": "@vocab"},
     "dct": "http://purl.org/dc/terms/",
+    "equivalentProperty": "cr:equivalentProperty",
     "examples": {"@id": "cr:examples", "@type": "@json"},
     "extract": "cr:extract",
     "field": "cr:field",
@@ -59,6 +61,7 @@ CROISSANT_CONTEXT: Final[dict[str, Any]] = {
     "regex": "cr:regex",
     "repeated": "cr:repeated",
     "replace": "cr:replace",
+    "samplingRate": "cr:samplingRate",
     "sc": "https://schema.org/",
     "separator": "cr:separator",
     "source": "cr:source",
@@ -144,8 +147,10 @@ def _record_set(name: str, description: str, file_id: str,
 
 
 def write_croissant(split_dir: Path, split: str, parts: Sequence[str], *,
-                    description: str = "", version: str = "0.1.0") -> Path:
-    """Write ``split_dir/croissant.json`` and its tables for the packed ``parts``."""
+                    description: str = "", version: str = "0.1.0",
+                    date_published: str | None = None) -> Path:
+    """Write ``split_dir/croissant.json`` and its tables for the packed ``parts``
+    (``date_published``: ISO date, default today in UTC)."""
     table_dir = split_dir / "croissant"
     table_dir.mkdir(exist_ok=True)
     episodes, objects = _tables(split_dir, parts)
@@ -170,6 +175,7 @@ def write_croissant(split_dir: Path, split: str, parts: Sequence[str], *,
         "license": "https://opensource.org/licenses/MIT",
         "url": "https://pypi.org/project/nsrmp-bench/",
         "version": version,
+        "datePublished": date_published or datetime.now(timezone.utc).date().isoformat(),
         "citeAs": ("Kalithasan et al., Learning Neuro-symbolic Programs for Language Guided "
                    "Robot Manipulation, ICRA 2023"),
         "distribution": files,

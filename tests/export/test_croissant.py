@@ -26,6 +26,7 @@ def test_pack_writes_croissant_that_mlcroissant_validates_and_reads(
     assert any(f["contentUrl"].endswith(".h5") for f in doc["distribution"])
     dataset = mlc.Dataset(jsonld=str(meta))  # validates; raises on an error
     assert not dataset.metadata.ctx.issues.errors
+    assert not dataset.metadata.ctx.issues.warnings
     episodes = list(dataset.records("episodes"))
     objects = list(dataset.records("objects"))
     with open_storage(smoke_v2_root / "test") as c:
