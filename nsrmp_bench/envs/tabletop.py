@@ -279,14 +279,14 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
             index = self.source.index(opts["instance"])
         else:
             index = int(self.np_random.integers(len(self.source.ids)))
-        cam = self.source.camera()
-        if cam is None and self.source.collection is not None:
-            cam = episode_camera(self.source.collection.episode(index, images=False))
-        world = self._world_for(cam if cam is not None else self.camera)
-        episode = self.source.episode(index, world)
+        spec_camera = self.source.camera()
+        if spec_camera is None:  # a part on disk: the episode says its camera
+            episode = self.source.episode(index, None)
+            self._world_for(episode_camera(episode))
+        else:  # generated here, in the world of the spec's camera
+            episode = self.source.episode(index, self._world_for(spec_camera))
         self.camera = episode_camera(episode)
-        if self.camera != world.camera:
-            world = self._world_for(self.camera)
+        self._world_for(self.camera)
         self.episode = episode
         gold = episode_boxes(episode)
         self._gold_final = gold[-1]

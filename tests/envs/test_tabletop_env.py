@@ -222,3 +222,18 @@ def test_import_order_and_module_prefixed_id() -> None:
             "assert 'nsrmp_bench/Tabletop-v0' not in gym.registry; "
             "gym.make('nsrmp_bench.envs:nsrmp_bench/Tabletop-v0', split='smoke-v2').close()")
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
+def test_robot_executor_carries_out_the_oracle(smoke_v2_test: Path,
+                                               episodes: list[Any]) -> None:
+    ep = next(e for e in episodes if e.symbolic.num_steps == 1)
+    env = TabletopEnv(smoke_v2_test, executor="robot")
+    try:
+        env.reset(options={"instance": ep.id})
+        for a in _oracle_actions(ep):
+            _, _, _, _, info = env.step(a)
+        assert info["is_success"], info["iou_m"]
+        _, reward, terminated, _, _ = env.step({"done": 1})
+        assert terminated and reward == 1.0
+    finally:
+        env.close()
