@@ -7,14 +7,17 @@ Example::
     nsrmp-bench rollout my_pkg.policies:policy --data data/smoke --part test --out p.jsonl
     nsrmp-bench rollout oracle --split smoke-v2 --part test --out p.jsonl   # generated here
 
-``POLICY`` is ``oracle`` (the gold program, one step at a time), ``noop`` or
-``module:function``, any callable ``policy(observation) -> action`` (see
-``nsrmp_bench.envs.policies``). Every instance runs in the Gymnasium environment
-``nsrmp_bench/Tabletop-v0`` (teleport executor, or the Panda with ``--executor robot``)
-until the policy says done or the instruction's step count plus ``--step-margin`` moves
-have been made. The output is an ordinary predictions file of the achieved final boxes
-(and positions, step boxes, program when every move was a DSL step), which ``score``
-scores. ``--report`` writes each instance's success, move count and failures as JSON.
+``POLICY`` is ``oracle`` (the gold program, one step at a time), ``noop``, ``nsrm`` or
+``nmn`` (a shipped program model's predicted program, one step at a time, each target
+on the real state; these read the gold boxes) or ``module:function``, any callable
+``policy(observation) -> action`` (see ``nsrmp_bench.envs.policies``). Every instance
+runs in the Gymnasium environment ``nsrmp_bench/Tabletop-v0`` (teleport executor, or the
+Panda with ``--executor robot``) until the policy says done or the instruction's step
+count plus ``--step-margin`` moves have been made. The output is an ordinary predictions
+file of the achieved final boxes (and positions, step boxes, program when every move was
+a DSL step), which ``score`` scores. ``--report`` writes each instance's success, move
+count and failures as JSON. A ``module:function`` policy must be importable by the
+workers (on ``PYTHONPATH``) when ``--workers`` > 1.
 """
 
 from __future__ import annotations
@@ -33,8 +36,8 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
-    parser.add_argument("policy", help="oracle, noop, or module:function (a callable "
-                                       "policy(observation) -> action)")
+    parser.add_argument("policy", help="oracle, noop, nsrm, nmn, or module:function (a "
+                                       "callable policy(observation) -> action)")
     parser.add_argument("--data", type=Path, default=None,
                         help="a generated part directory (or a split root with --part)")
     parser.add_argument("--split", default=None,
@@ -59,10 +62,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Roll out, write the predictions and the report."""
-    from nsrmp_bench.envs.policies import check_policy
+    from nsrmp_bench.envs.policies import BOX_READING, check_policy
     from nsrmp_bench.envs.rollout import RolloutConfig, rollout_part
 
     check_policy(args.policy)
+    if args.policy in BOX_READING:
+        args.boxes = "gold"  # these models read the gold boxes
     if args.data is None and args.split is None:
         msg = "give --data (a generated part) or --split (a split id, generated on the fly)"
         raise InvalidArgument(msg)

@@ -7,6 +7,12 @@ that is called at the start of every episode. Named policies:
 * ``oracle``: the gold grounded program, one DSL step per move, then done. It reads the
   gold program from the environment (privileged: the upper bound, as ``oracle-v1``).
 * ``noop``: says done at once (the floor).
+* ``nsrm`` / ``nmn`` (or a model id such as ``nsrm-v1``): a shipped program model (torch
+  extra). It reads the instruction, the initial RGB-D and the gold boxes (so the
+  environment needs ``boxes="gold"``; ``rollout`` sets it) once, predicts its grounded
+  program, and issues it one DSL step per move; each step's target is computed by the
+  environment on the real state after the previous move (closed-loop execution, the
+  program is not re-planned).
 * ``module:function``: any importable callable, e.g. ``my_pkg.policies:greedy``. A class
   is instantiated with no arguments. Example::
 
@@ -24,10 +30,15 @@ import inspect
 from collections.abc import Callable
 from typing import Any, Protocol
 
+import numpy as np
+
 from nsrmp_bench.errors import InvalidArgument
 
-__all__ = ["NAMED_POLICIES", "NoopPolicy", "OraclePolicy", "Policy", "check_policy",
-           "make_policy"]
+__all__ = ["BOX_READING", "NAMED_POLICIES", "NoopPolicy", "OraclePolicy", "Policy",
+           "ProgramModelPolicy", "check_policy", "make_policy"]
+
+BOX_READING = frozenset({"nsrm", "nsrm-v1", "nmn", "nmn-v1"})
+"""Named policies that read the gold boxes (the environment needs ``boxes="gold"``)."""
 
 
 class Policy(Protocol):
@@ -56,6 +67,39 @@ class OraclePolicy:
         return {"step": (step.action, step.subject, step.reference)}
 
 
+class ProgramModelPolicy:
+    """A learned program model's grounded program, one step per move, then done."""
+
+    def __init__(self, env: Any, model_id: str) -> None:
+        from nsrmp_bench.reference_model.registry import load_model
+
+        if getattr(env.unwrapped, "boxes_mode", None) != "gold":
+            msg = (f"policy {model_id!r} reads the gold boxes: make the environment with "
+                   "boxes='gold' (rollout: --boxes gold)")
+            raise InvalidArgument(msg)
+        self.model = load_model(model_id)
+        self._steps: list[tuple[int, int, int]] = []
+        self._k = 0
+
+    def reset(self, observation: dict[str, Any], info: dict[str, Any]) -> None:
+        """Predict the program from the initial observation."""
+        n = int(np.asarray(observation["object_mask"]).sum())
+        item = {"id": str(info["instance"]), "inputs": {
+            "instruction": observation["instruction"], "rgb": observation["rgb"],
+            "depth": observation["depth"],
+            "boxes": np.asarray(observation["boxes"][:n], dtype=np.float32)}}
+        _, inferred = self.model.infer([item])
+        self._steps = [(int(a), int(s), int(r)) for a, s, r in inferred.steps[0]]
+        self._k = 0
+
+    def __call__(self, observation: dict[str, Any]) -> dict[str, Any]:
+        if self._k >= len(self._steps):
+            return {"done": 1}
+        a, s, r = self._steps[self._k]
+        self._k += 1
+        return {"step": (a, s, r)}
+
+
 class NoopPolicy:
     """Says done at once: the scene stays as it is."""
 
@@ -66,6 +110,10 @@ class NoopPolicy:
 NAMED_POLICIES: dict[str, Callable[[Any], Policy]] = {
     "oracle": OraclePolicy,
     "noop": lambda env: NoopPolicy(),
+    "nsrm": lambda env: ProgramModelPolicy(env, "nsrm-v1"),
+    "nsrm-v1": lambda env: ProgramModelPolicy(env, "nsrm-v1"),
+    "nmn": lambda env: ProgramModelPolicy(env, "nmn-v1"),
+    "nmn-v1": lambda env: ProgramModelPolicy(env, "nmn-v1"),
 }
 """Policy name -> factory taking the environment."""
 

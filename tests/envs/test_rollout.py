@@ -65,3 +65,17 @@ def test_unknown_policy_is_refused(smoke_v2_test: Path, tmp_path: Path,
     assert not out.exists()
     with pytest.raises(InvalidArgument, match="unknown policy 'greedy'"):
         check_policy("greedy")
+
+
+def test_nsrm_policy_rolls_out_its_predicted_program(smoke_v2_test: Path,
+                                                     tmp_path: Path) -> None:
+    pytest.importorskip("torch")
+    out = tmp_path / "nsrm.closed.jsonl"
+    assert main(["rollout", "nsrm", "--data", str(smoke_v2_test), "--out", str(out),
+                 "--limit", "4", "--quiet"]) == 0
+    sub = read_submission(out)
+    assert sub.header.extra["rollout"]["boxes"] == "gold"
+    assert len(sub.ids) == 4
+    # a line carries the program when every move was a DSL step the environment carried
+    # out (a predicted self-move or an empty program leaves it out)
+    assert sub.has_program.sum() >= 3
