@@ -19,6 +19,8 @@ from __future__ import annotations
 
 from typing import Final
 
+from nsrmp_bench._optional import require
+
 __all__ = ["ENV_IDS", "register_envs"]
 
 ENV_IDS: Final = ("nsrmp_bench/Tabletop-v0",)
@@ -26,12 +28,12 @@ ENV_IDS: Final = ("nsrmp_bench/Tabletop-v0",)
 
 
 def register_envs() -> None:
-    """Register :data:`ENV_IDS` with Gymnasium (idempotent)."""
-    from gymnasium.envs.registration import register, registry
-
-    if "nsrmp_bench/Tabletop-v0" not in registry:
-        register(id="nsrmp_bench/Tabletop-v0",
-                 entry_point="nsrmp_bench.envs.tabletop:TabletopEnv")
+    """Register :data:`ENV_IDS` with Gymnasium (idempotent); without Gymnasium,
+    :class:`~nsrmp_bench.errors.MissingExtra` names the ``gym`` extra."""
+    registration = require("gymnasium.envs.registration")
+    if "nsrmp_bench/Tabletop-v0" not in registration.registry:
+        registration.register(id="nsrmp_bench/Tabletop-v0",
+                              entry_point="nsrmp_bench.envs.tabletop:TabletopEnv")
 
 
 register_envs()
