@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # type checkers see the real signature; at run time it is lazy
@@ -10,6 +11,15 @@ if TYPE_CHECKING:  # type checkers see the real signature; at run time it is laz
     from nsrmp_bench.storage.reader import open as open
 
 __version__ = "0.1.0"
+
+if "gymnasium" in sys.modules:
+    # ``import gymnasium; import nsrmp_bench`` registers nsrmp_bench/Tabletop-v0, so
+    # ``gymnasium.register_envs(nsrmp_bench)`` works as for other environment packages.
+    # Importing Gymnasium only for this would cost every import ~0.3 s; without it, use
+    # ``import nsrmp_bench.envs`` or the id "nsrmp_bench.envs:nsrmp_bench/Tabletop-v0".
+    from nsrmp_bench.envs import register_envs as _register_envs
+
+    _register_envs()
 
 
 def __getattr__(name: str) -> object:

@@ -34,6 +34,9 @@ _EXTRA_OF: dict[str, str] = {
     "skimage": "reconstruction",
     "scipy": "detection",
     "pycocotools": "detection",
+    "gymnasium": "gym",
+    "datasets": "export",
+    "mlcroissant": "export",
 }
 
 

@@ -15,10 +15,12 @@ __all__ = [
     "EngineError",
     "GenerationError",
     "InfeasibleStep",
+    "InvalidAction",
     "InvalidArgument",
     "InvalidReference",
     "MissingExtra",
     "NSRMPError",
+    "ResetNeeded",
     "SchemaVersionError",
     "SubmissionError",
     "UnknownId",
@@ -83,3 +85,12 @@ class EngineError(NSRMPError):
 
 class MissingExtra(NSRMPError, ImportError):
     """An optional dependency is needed; the message names the extra to install."""
+
+
+class InvalidAction(NSRMPError, ValueError):
+    """An environment action that cannot be carried out as given: a point outside the
+    image, an object index the scene does not have, a malformed action."""
+
+
+class ResetNeeded(NSRMPError, RuntimeError):
+    """An environment was stepped before ``reset`` or after its episode ended."""

@@ -42,7 +42,9 @@ class RegistryEntry:
 
 
 def pack(data_dir: str | os.PathLike[str], out: str | os.PathLike[str]) -> list[RegistryEntry]:
-    """Copy a generated split (``data_dir/<part>/``) into ``out/<split>/`` with its registry."""
+    """Copy a generated split (``data_dir/<part>/``) into ``out/<split>/`` with its registry
+    and its Croissant metadata (``croissant.json``, see :mod:`nsrmp_bench.export.croissant`;
+    not in the registry, which lists only what ``download`` fetches)."""
     src = Path(data_dir)
     parts = [src / p for p in split_root_parts(src)] or [src]
     if not (parts[0] / "manifest.json").is_file():
@@ -67,6 +69,10 @@ def pack(data_dir: str | os.PathLike[str], out: str | os.PathLike[str]) -> list[
         msg = f"{src} holds no manifest; generate the split first"
         raise InvalidArgument(msg)
     lines = [f"{e.path} {e.sha256} {e.bytes}" for e in entries]
+    from nsrmp_bench.export.croissant import write_croissant
+
+    packed_parts = sorted({e.path.split("/", 1)[0] for e in entries})
+    write_croissant(Path(out) / split_id, split_id, packed_parts)
     (Path(out) / split_id / REGISTRY_NAME).write_text(
         f"# nsrmp-bench release registry for {split_id}: <part>/<file> <sha256> <bytes>\n"
         + "\n".join(lines) + "\n", "utf-8"

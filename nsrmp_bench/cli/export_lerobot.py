@@ -1,0 +1,42 @@
+"""``nsrmp-bench export-lerobot DATA --out DIR``: the split in the LeRobot v3.0 layout.
+
+Example::
+
+    nsrmp-bench export-lerobot data/smoke --out lerobot/smoke
+    # with lerobot installed elsewhere:
+    #   LeRobotDataset("local/smoke", root="lerobot/smoke")
+
+One frame per rendered state (fps 1), the RGB image as an image feature, the object
+poses as ``observation.state``, the move from each state as ``action`` (pick and place
+image points) and ``action.step`` (the DSL step), the instruction as the task. Written
+with pyarrow and datasets (lerobot itself is not needed; see
+``nsrmp_bench.export.lerobot``). ``DIR`` must be new or empty; the export is written to a
+temporary folder beside it and renamed when complete. Needs the ``export`` extra.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of the verb."""
+    parser.add_argument("data", type=Path, help="a generated split directory (or one part)")
+    parser.add_argument("--out", type=Path, required=True, help="a new or empty folder")
+    parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Export and print the totals."""
+    from nsrmp_bench.export.lerobot import export_lerobot
+
+    info = export_lerobot(args.data, args.out)
+    if not args.quiet:
+        print(f"wrote {info['total_episodes']} episode(s), {info['total_frames']} frame(s) "
+              f"in the LeRobot {info['codebase_version']} layout into {args.out}",
+              file=sys.stderr)
+    return 0

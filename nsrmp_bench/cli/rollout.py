@@ -1,0 +1,131 @@
+"""``nsrmp-bench rollout POLICY``: run a policy in closed loop on every instance of a part.
+
+Example::
+
+    nsrmp-bench rollout oracle --data data/smoke/test --out oracle.closed.jsonl
+    nsrmp-bench score oracle.closed.jsonl --data data/smoke/test
+    nsrmp-bench rollout my_pkg.policies:policy --data data/smoke --part test --out p.jsonl
+    nsrmp-bench rollout oracle --split smoke-v2 --part test --out p.jsonl   # generated here
+
+``POLICY`` is ``oracle`` (the gold program, one step at a time), ``noop``, ``nsrm`` or
+``nmn`` (a shipped program model's predicted program, one step at a time, each target
+on the real state; these read the gold boxes) or ``module:function``, any callable
+``policy(observation) -> action`` (see ``nsrmp_bench.envs.policies``). Every instance
+runs in the Gymnasium environment ``nsrmp_bench/Tabletop-v0`` (teleport executor, or the
+Panda with ``--executor robot``) until the policy says done or the instruction's step
+count plus ``--step-margin`` moves have been made. The output is an ordinary predictions
+file of the achieved final boxes (and positions, step boxes, program when every move was
+a DSL step), which ``score`` scores. ``--report`` writes each instance's success, move
+count and failures as JSON. A ``module:function`` policy must be importable by the
+workers (on ``PYTHONPATH``) when ``--workers`` > 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
+from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.scoring.submission import SubmissionHeader, write_submission
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of the verb."""
+    parser.add_argument("policy", help="oracle, noop, nsrm, nmn, or module:function (a "
+                                       "callable policy(observation) -> action)")
+    parser.add_argument("--data", type=Path, default=None,
+                        help="a generated part directory (or a split root with --part)")
+    parser.add_argument("--split", default=None,
+                        help="without --data: a split id or spec file, generated on the fly")
+    parser.add_argument("--part", default=None,
+                        help="the part to run (default: the part --data is, else 'test')")
+    parser.add_argument("--out", required=True, type=Path,
+                        help="predictions file to write (.jsonl or .parquet)")
+    parser.add_argument("--executor", default="teleport", choices=("teleport", "robot"),
+                        help="how moves are carried out (default teleport)")
+    parser.add_argument("--boxes", default=None, choices=("gold",),
+                        help="give the policy the current gold boxes in the observation")
+    parser.add_argument("--step-margin", type=int, default=2,
+                        help="moves allowed beyond the instruction's step count (default 2)")
+    parser.add_argument("--limit", type=int, default=None,
+                        help="run only the first N instances")
+    parser.add_argument("--report", type=Path, default=None,
+                        help="write per-instance results (success, moves, failures) as JSON")
+    add_engine_arguments(parser, workers=1)
+    parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Roll out, write the predictions and the report."""
+    from nsrmp_bench.envs.policies import BOX_READING, check_policy
+    from nsrmp_bench.envs.rollout import RolloutConfig, rollout_part
+
+    check_policy(args.policy)
+    if args.policy in BOX_READING:
+        args.boxes = "gold"  # these models read the gold boxes
+    if args.data is None and args.split is None:
+        msg = "give --data (a generated part) or --split (a split id, generated on the fly)"
+        raise InvalidArgument(msg)
+    if args.limit is not None and args.limit < 0:
+        msg = f"--limit must be >= 0, got {args.limit}"
+        raise InvalidArgument(msg)
+    if args.workers < 1:
+        msg = f"--workers must be >= 1, got {args.workers}"
+        raise InvalidArgument(msg)
+    part = args.part
+    split_id: str | None = None
+    if args.data is not None:
+        from nsrmp_bench.storage import open as open_storage
+
+        with open_storage(args.data, part=part) as collection:
+            ids = list(collection.ids)
+            split_id = collection.split or None
+        if part is None and split_id and "/" in split_id:
+            part = split_id.split("/", 1)[1]
+    else:
+        from nsrmp_bench.split_specs import resolve_split
+
+        spec = resolve_split(args.split)
+        part = part or "test"
+        ids = [spec.episode_id(part, i) for i in range(spec.part(part).count)]
+        split_id = f"{spec.id}/{part}"
+    if not split_id:
+        msg = f"{args.data} records no split id; it is not a generated part"
+        raise InvalidArgument(msg)
+    if args.limit is not None:
+        ids = ids[:args.limit]
+    config = RolloutConfig(
+        policy=args.policy, data=None if args.data is None else str(args.data),
+        split=args.split, part=part or "test", executor=args.executor, boxes=args.boxes,
+        step_margin=args.step_margin)
+
+    def progress(done: int) -> None:
+        if not args.quiet and (done % 10 == 0 or done == len(ids)):
+            print(f"  {done}/{len(ids)}", file=sys.stderr)
+
+    with engine_from_args(args) as engine:
+        if not args.quiet:
+            print(f"rolling out {args.policy} on {len(ids)} instance(s) of {split_id} "
+                  f"({args.executor} executor) in {engine.describe()}", file=sys.stderr)
+        results = rollout_part(config, ids, engine, tasks=args.workers, progress=progress)
+    header = SubmissionHeader(
+        split=split_id, model=f"{args.policy} (closed-loop rollout)",
+        extra={"rollout": {"env": "nsrmp_bench/Tabletop-v0", "policy": args.policy,
+                           "executor": args.executor, "step_margin": args.step_margin,
+                           "boxes": args.boxes}})
+    write_submission(args.out, header, [p for p, _ in results])
+    summaries = [s for _, s in results]
+    ok = sum(s["is_success"] for s in summaries)
+    if args.report is not None:
+        tmp = args.report.with_name(args.report.name + ".tmp")
+        tmp.write_text(json.dumps({"instances": summaries}, indent=1) + "\n", "utf-8")
+        tmp.replace(args.report)
+    if not args.quiet:
+        print(f"wrote {args.out}: {len(results)} instance(s), {ok} successful in the "
+              "environment", file=sys.stderr)
+    return 0
