@@ -13,6 +13,7 @@ the window's.
 from __future__ import annotations
 
 import argparse
+import base64
 import shutil
 import sys
 from pathlib import Path
@@ -57,6 +58,7 @@ def main(argv: list[str] | None = None) -> int:
     pages += cards[:1] + [c for c in cards if "gives no facts" in c.read_text("utf-8")][:1]
     args.out.mkdir(parents=True, exist_ok=True)
     browser = _driver(chromium, driver)
+    browser.set_page_load_timeout(120)
     try:
         for width in WIDTHS:
             for page in pages:
@@ -65,10 +67,15 @@ def main(argv: list[str] | None = None) -> int:
                 height, scroll = browser.execute_script(
                     "return [document.documentElement.scrollHeight,"
                     " document.documentElement.scrollWidth];")
-                browser.set_window_size(width, min(int(height) + 120, 12000))
                 name = page.relative_to(site).with_suffix("").as_posix().replace("/", "--")
                 shot = args.out / f"{name}-{width}.png"
-                browser.save_screenshot(str(shot))
+                # the whole page through the DevTools protocol: no window as tall as the
+                # page, which a loaded machine's renderer may not paint in time
+                data = browser.execute_cdp_cmd("Page.captureScreenshot", {
+                    "format": "png", "captureBeyondViewport": True,
+                    "clip": {"x": 0, "y": 0, "width": width, "height": int(height),
+                             "scale": 1}})
+                shot.write_bytes(base64.b64decode(data["data"]))
                 print(f"{shot}  (scroll width {scroll} at {width} px)")
     finally:
         browser.quit()
