@@ -1,6 +1,7 @@
 // Sortable leaderboard tables (nsrmp-bench). No dependencies, works from file://.
 // Click a column heading to sort by it (numbers by their data-value); click again to
-// reverse. The heading carries aria-sort; empty values always sort last.
+// reverse. The heading carries aria-sort; empty values always sort last. Boxes in a
+// fieldset.filters hide the rows of a protocol or the reference rows.
 (function () {
   "use strict";
   function key(cell) {
@@ -39,5 +40,24 @@
       th.appendChild(button);
       button.addEventListener("click", function () { sortBy(table, index, th); });
     });
+  });
+  // Filters: a row shows when its protocol's box is ticked; a reference row (class
+  // "baseline") shows when the "reference rows" box is ticked.
+  document.querySelectorAll("fieldset.filters").forEach(function (set) {
+    var table = document.getElementById(set.getAttribute("data-table"));
+    var boxes = set.querySelectorAll("input[type=checkbox]");
+    function apply() {
+      var shown = {};
+      Array.prototype.forEach.call(boxes, function (b) {
+        shown[b.getAttribute("data-filter") + ":" + b.value] = b.checked;
+      });
+      Array.prototype.forEach.call(table.tBodies[0].rows, function (row) {
+        var visible = row.classList.contains("baseline") ? shown["reference:reference"]
+          : shown["protocol:" + row.getAttribute("data-protocol")] !== false;
+        row.hidden = !visible;
+      });
+    }
+    Array.prototype.forEach.call(boxes, function (b) { b.addEventListener("change", apply); });
+    apply();
   });
 })();

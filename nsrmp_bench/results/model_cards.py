@@ -5,7 +5,8 @@ The facts come from the card of a registered learned model's shipped checkpoint
 (``reference_model/checkpoints/<id>.card.json``) or from the baseline registry (no baseline
 is trained); the entry file's own ``"card"`` object overrides them key by key (an outside
 submission states its facts there; an entry run from another checkpoint corrects the
-training data). Anything else reads "not stated".
+training data). A model on a detector's boxes (``nsrm-v1+detector-v1``) has its model's
+card, its inputs saying whose boxes it read. Anything else reads "not stated".
 """
 
 from __future__ import annotations
@@ -153,6 +154,14 @@ def _registered(model: str) -> ModelCard:
                  "parameters": "0", "supervision": "none",
                  "inputs": BASELINES[model].reads}
         return ModelCard(model, facts, "the baseline registry")
+    base, plus, detector = model.partition("+")
+    if plus and base and detector:  # a model on a detector's boxes: the model's own card
+        card = _registered(base)
+        if card.source != "nothing stated":
+            facts = {**card.facts,
+                     "inputs": f"{card.facts['inputs']}; here the boxes {detector} detected "
+                               "instead of the gold boxes"}
+            return ModelCard(model, facts, f"{card.source}, for {base} on {detector}'s boxes")
     return ModelCard(model, {k: NOT_STATED for k, _ in CARD_FIELDS}, "nothing stated")
 
 

@@ -5,12 +5,15 @@ Markdown and JSON boards exactly as :func:`nsrmp_bench.leaderboard.build` does, 
 fills the site folder (default ``leaderboards/site/``): ``summary.json`` of the entries'
 runs (the format ``evaluate`` writes, so ``plot`` and ``report`` read it), the figures
 (``figures/*.png``/``.svg``), the paper's tables (``paper-tables.md``/``.tex``) and the
-pages. The README's Results figures are the site's figures.
+pages, with copies of the predictions files and model cards they link. The README's
+Results figures are the site's figures. :func:`rebuild_site` redraws the site alone from
+the committed boards and ``summary.json`` (no data, no scoring).
 """
 
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +25,7 @@ from nsrmp_bench.results.site import read_boards, write_site
 from nsrmp_bench.results.summary import Results, Run
 from nsrmp_bench.scoring.result import ScoreResult
 
-__all__ = ["publish", "write_site_files"]
+__all__ = ["publish", "rebuild_site", "write_site_files"]
 
 
 def write_site_files(results: Results, entries_dir: str | os.PathLike[str],
@@ -33,8 +36,19 @@ def write_site_files(results: Results, entries_dir: str | os.PathLike[str],
     results.write(site)
     written = draw_figures(results, site / "figures", none_ok=True)
     written += list(write_report(results, site, paper=True))
-    written += write_site(read_boards(boards_dir), load_entries(entries_dir), site)
+    written += write_site(read_boards(boards_dir), load_entries(entries_dir), site, results)
     return written
+
+
+def rebuild_site(entries_dir: str | os.PathLike[str], boards_dir: str | os.PathLike[str],
+                 site_dir: str | os.PathLike[str]) -> list[Path]:
+    """The site again from the boards of ``boards_dir`` and the runs of
+    ``site_dir/summary.json``, as the last :func:`publish` wrote them (no scoring)."""
+    require("matplotlib")
+    runs = Results.read(site_dir).runs
+    copies = tuple(replace(r, predictions=f"predictions/{Path(r.predictions).name}")
+                   for r in runs)  # the site's own copies, wherever the summary pointed
+    return write_site_files(Results(copies), entries_dir, boards_dir, site_dir)
 
 
 def publish(entries_dir: str | os.PathLike[str], data_root: str | os.PathLike[str],
@@ -47,9 +61,8 @@ def publish(entries_dir: str | os.PathLike[str], data_root: str | os.PathLike[st
     runs: list[Run] = []
 
     def keep(entry: Entry, result: ScoreResult) -> None:
-        link = os.path.relpath(entry.predictions, os.path.normpath(site.absolute()))
         runs.append(Run.from_score(result, model=entry.model, kind=entry.kind,
-                                   predictions=Path(link).as_posix()))
+                                   predictions=f"predictions/{entry.predictions.name}"))
 
     boards = build(entries_dir, data_root, out_dir, breakdown=True, on_result=keep)
     return boards, write_site_files(Results(tuple(runs)), entries_dir, out_dir, site)

@@ -1,18 +1,29 @@
 """The static web leaderboard: ``leaderboards/site/``, opened from ``file://``.
 
 Pages are written from files only: the JSON boards (``leaderboards/<split>-<part>.json``),
-the entry files (predictions path, model card) and the figures already drawn into
+the entry files (predictions path, model card), the scored runs (``summary.json``: the
+scorer's counts say each row's protocol) and the figures already drawn into
 ``site/figures/``. So the site is recomputable exactly like the Markdown boards, and the
 same boards give the same bytes. There is no server and nothing is fetched: the style
-sheet and the sorting script are copied next to the pages.
+sheet and the sorting script are copied next to the pages, and so are every predictions
+file (``predictions/``) and model card (``model-cards/``) a page links, so the folder can
+be published alone as it is.
 
-* ``index.html``: every board with its top entry, the generalisation figures, and the
-  paper's tables (``paper-tables.md``/``.tex``) when present;
+* ``index.html``: every leaderboard with its best entry (reference rows aside), the
+  generalisation figures and the paper's tables (``paper-tables.md``/``.tex``) when
+  present; the test boards (smoke) apart, below;
 * ``<split>-<part>.html``: the board as a sortable table (IoU-M first, values with 95%
-  intervals; a column heading sorts by its value), each entry linked to its predictions
-  file and its model card, and the figures that involve the split;
+  intervals; a column heading sorts by its value), a protocol column and a filter by
+  protocol, each entry linked to its predictions file and its model card, and the
+  figures that involve the split;
 * ``cards/<entry>.html``: the model card of an entry: training data, training time,
-  parameters, supervision, the inputs it reads (:mod:`nsrmp_bench.results.model_cards`).
+  parameters, supervision, the inputs it reads (:mod:`nsrmp_bench.results.model_cards`),
+  or, plainly, that its card states none of them.
+
+Ranks (:func:`shared_ranks`, the rule is :data:`RANK_RULE`, printed on every board): the
+reference rows are not ranked; the other entries are ranked by IoU-M, and one whose 95%
+interval overlaps the interval of the first entry of its tie group (the leader) shares
+the leader's rank.
 
 Each table row carries ``data-entry`` and each figure cell its exact value in
 ``data-value`` (the JSON board's number), which the browser test compares with the boards.
@@ -23,6 +34,7 @@ from __future__ import annotations
 import html
 import json
 import os
+import shutil
 from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
@@ -30,24 +42,25 @@ from typing import Any
 
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.leaderboard import COLUMNS, Entry
-from nsrmp_bench.results.figures import CATEGORY_BARS, FIGURES
-from nsrmp_bench.results.model_cards import CARD_FIELDS, model_card
+from nsrmp_bench.results.colours import model_styles
+from nsrmp_bench.results.figures import CATEGORY_BARS, FIGURES, caption, figure_names
+from nsrmp_bench.results.model_cards import CARD_FIELDS, NOT_STATED, model_card
+from nsrmp_bench.results.protocols import PROTOCOLS, Protocol, is_reference, protocol_of
+from nsrmp_bench.results.ranks import RANK_RULE, shared_ranks
+from nsrmp_bench.results.summary import Results
 from nsrmp_bench.scoring.metrics import METRICS
 
-__all__ = ["ASSETS", "FIGURE_CAPTIONS", "read_boards", "write_site"]
+__all__ = ["ASSETS", "RANK_RULE", "is_test_board", "read_boards", "shared_ranks",
+           "write_site"]
 
 ASSETS = ("site.css", "site.js")
-FIGURE_CAPTIONS = {
-    "iou_m_by_objects": "IoU-M against the number of objects: paper-v2/test (3–5, the "
-                        "training range) then objects-v2/test (6–15); bands are 95% "
-                        "bootstrap intervals.",
-    "iou_m_by_steps": "IoU-M against the number of steps: paper-v2/test (1–2) then "
-                      "steps-v2/test (3–7); bands are 95% bootstrap intervals.",
-    "iou_m_by_category": "IoU-M per category of paper-v2/test, then the held-out "
-                         "language (language-v2/test) and attribute pairs "
-                         "(attributes-v2/test); bars show 95% intervals.",
-}
 _LABELS = {m.name: m.label for m in METRICS}
+
+
+def is_test_board(split: str) -> bool:
+    """Whether a board is a test board (the smoke split: a few instances, for checking a
+    pipeline, not for comparing models)."""
+    return split.split("-v", 1)[0] == "smoke"
 
 
 def read_boards(boards_dir: str | os.PathLike[str]) -> dict[str, list[dict[str, Any]]]:
@@ -76,6 +89,10 @@ def _link(target: Path, start: Path) -> str:
     return Path(os.path.relpath(target, start)).as_posix()
 
 
+def _model_name(model: str) -> str:
+    return "+<wbr>".join(_e(part) for part in model.split("+"))
+
+
 def _page(title: str, body: list[str], depth: int = 0) -> str:
     up = "../" * depth
     return "\n".join([
@@ -99,8 +116,11 @@ def _page(title: str, body: list[str], depth: int = 0) -> str:
 def _nav(splits: Sequence[str], depth: int = 0) -> str:
     up = "../" * depth
     links = [f'<a href="{up}index.html">all boards</a>']
-    links += [f'<a href="{up}{_stem(s)}.html">{_e(s)}</a>' for s in splits]
-    return "<nav>" + " ".join(links) + "</nav>"
+    links += [f'<a href="{up}{_stem(s)}.html">{_e(s)}</a>' for s in splits
+              if not is_test_board(s)]
+    tests = [f'<a class="test" href="{up}{_stem(s)}.html">test board: {_e(s)}</a>'
+             for s in splits if is_test_board(s)]
+    return "<nav>" + " ".join(links + tests) + "</nav>"
 
 
 def _metric_cell(triple: Any) -> str:
@@ -118,7 +138,7 @@ def _figures(names: Sequence[str], site: Path, start: Path) -> list[str]:
         if not png.is_file():
             continue
         svg = png.with_suffix(".svg")
-        alt = FIGURE_CAPTIONS[name]
+        alt = caption(name)
         extra = f' (<a href="{_link(svg, start)}">SVG</a>)' if svg.is_file() else ""
         out += [
             "<figure>",
@@ -133,135 +153,263 @@ def _figures_for(split: str) -> list[str]:
     names = [a.name for a in FIGURES if split in (a.in_distribution, a.held_out)]
     if split in {part for _, part, _, _ in CATEGORY_BARS}:
         names.append("iou_m_by_category")
-    return names
+    return names or [f"{name}--{_stem(split)}" for name in figure_names()]
 
 
-def _board_page(split: str, rows: list[dict[str, Any]], entries: Mapping[str, Entry],
-                site: Path, splits: Sequence[str]) -> str:
+class _Site:
+    """The site folder, the entries by name, the protocols and the copied files."""
+
+    def __init__(self, site: Path, entries: Sequence[Entry], results: Results | None,
+                 splits: Sequence[str]) -> None:
+        self.root = site
+        self.entries = {e.name: e for e in entries}
+        self.splits = splits
+        self.results = results
+        models = [e.model for e in entries if not is_reference(e.kind)]
+        self.styles = model_styles(models)
+
+    def protocol(self, entry: Entry) -> Protocol | None:
+        run = self.results.run(entry.model, entry.split) if self.results is not None else None
+        return protocol_of(entry.model, run.counts) if run is not None else None
+
+    def entry(self, split: str, name: str) -> Entry:
+        found = self.entries.get(name)
+        if found is None:
+            msg = (f"board {split} has a row for entry {name!r}, which is not in the "
+                   "entries folder; rebuild the boards with `nsrmp-bench leaderboard`")
+            raise InvalidArgument(msg)
+        return found
+
+    def predictions(self, entry: Entry) -> Path:
+        """The site's copy of the entry's predictions file (copied on first use)."""
+        return _copy(entry.predictions, self.root / "predictions" / entry.predictions.name)
+
+    def full_card(self, entry: Entry) -> Path | None:
+        """The site's copy of the entry's model card file, if it names one."""
+        if entry.model_card is None:
+            return None
+        return _copy(entry.model_card, self.root / "model-cards" / entry.model_card.parent.name
+                     / entry.model_card.name)
+
+    def swatch(self, model: str) -> str:
+        style = self.styles.get(model)
+        if style is None:
+            return '<span class="swatch ref" aria-hidden="true"></span>'
+        return (f'<span class="swatch" style="background:{style.colour}" '
+                'aria-hidden="true"></span>')
+
+
+def _copy(source: Path, target: Path) -> Path:
+    if not source.is_file():
+        msg = f"{source} does not exist; the site copies it to {target}: restore it"
+        raise InvalidArgument(msg)
+    if target.is_file() and target.read_bytes() == source.read_bytes():
+        return target
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = target.with_name(target.name + ".tmp")
+    shutil.copyfile(source, tmp)
+    tmp.replace(target)
+    return target
+
+
+def _filters(protocols: Sequence[str]) -> str:
+    boxes = [f'<label><input type="checkbox" data-filter="protocol" value="{_e(p)}" checked> '
+             f"{_e(p)}</label>" for p in protocols]
+    boxes.append('<label><input type="checkbox" data-filter="reference" value="reference" '
+                 "checked> reference rows (oracle, noop, random)</label>")
+    return ('<fieldset class="filters" data-table="board"><legend>show</legend>'
+            + " ".join(boxes) + "</fieldset>")
+
+
+def _board_page(split: str, rows: list[dict[str, Any]], site: _Site) -> str:
     head = ['<th data-type="number">rank</th>', '<th data-type="text">model</th>',
-            '<th data-type="text">kind</th>']
+            '<th data-type="text">kind</th>', '<th data-type="text">protocol</th>']
     head += [f'<th data-type="number" data-metric="{m}">{_e(_LABELS.get(m, m))}</th>'
              for m in COLUMNS]
-    head += ['<th data-type="number">n</th>', '<th data-type="none">predictions</th>',
-             '<th data-type="none">model card</th>']
-    body = [
-        _nav(splits),
-        f"<h1>Leaderboard: {_e(split)}</h1>",
+    head += ['<th data-type="number">n</th>', '<th data-type="none">files</th>']
+    test = is_test_board(split)
+    title = f"Test board: {split}" if test else f"Leaderboard: {split}"
+    body = [_nav(site.splits), f"<h1>{_e(title)}</h1>"]
+    if test:
+        body.append('<p class="warning">A test board: this part has a handful of '
+                    "instances, for checking that a pipeline runs end to end. Its numbers "
+                    "compare nothing; the leaderboards are the official test parts.</p>")
+    body += [
         '<p class="note">Every row is the public scorer\'s output on the committed '
         "predictions file (<code>nsrmp-bench leaderboard</code> recomputes it). Values with "
         "95% bootstrap intervals; IoU-M (moved objects) is the headline. Click a column "
-        "heading to sort.</p>",
-        '<table class="sortable" id="board">',
-        "<thead><tr>" + "".join(head) + "</tr></thead>",
-        "<tbody>",
+        "heading to sort; the boxes below filter by protocol.</p>",
+        f'<p class="note">{_e(RANK_RULE)}</p>',
     ]
-    for rank, row in enumerate(rows, 1):
-        entry = entries.get(row["entry"])
-        if entry is None:
-            msg = (f"board {split} has a row for entry {row['entry']!r}, which is not in the "
-                   "entries folder; rebuild the boards with `nsrmp-bench leaderboard`")
-            raise InvalidArgument(msg)
-        cells = [f'<td data-value="{rank}">{rank}</td>',
-                 f'<td class="text" title="{_e(row["description"])}">{_e(row["model"])}</td>',
-                 f'<td class="text">{_e(row["kind"])}</td>']
+    protocols: list[Protocol | None] = [site.protocol(site.entry(split, r["entry"]))
+                                        for r in rows]
+    present = [p for p in PROTOCOLS if any(q is not None and q.name == p for q in protocols)]
+    if present:
+        body.append(_filters(present))
+    body += ['<table class="sortable" id="board">',
+             "<thead><tr>" + "".join(head) + "</tr></thead>", "<tbody>"]
+    for row, rank, protocol in zip(rows, shared_ranks(rows), protocols, strict=True):
+        entry = site.entry(split, row["entry"])
+        reference = is_reference(row["kind"])
+        predictions = site.predictions(entry)
+        rank_cell = (f'<td data-value="{rank.rstrip("=")}">{rank}</td>' if rank
+                     else '<td data-value="" title="reference row: not ranked">ref</td>')
+        cells = [rank_cell,
+                 f'<td class="text model" title="{_e(row["description"])}">'
+                 f'{site.swatch(row["model"])}{_model_name(row["model"])}</td>',
+                 f'<td class="text">{_e(row["kind"])}</td>',
+                 f'<td class="text">{_e(protocol.label if protocol else "not scored here")}'
+                 "</td>"]
         cells += [_metric_cell(row["metrics"].get(m)) for m in COLUMNS]
         cells.append(f'<td data-value="{int(row["n"])}">{int(row["n"])}</td>')
-        cells.append(f'<td class="text"><a href="{_link(entry.predictions, site)}" '
-                     f'title="{_e(entry.predictions.name)}">{_e(entry.predictions.suffix[1:])}</a></td>')
-        cells.append(f'<td class="text"><a href="cards/{_e(entry.name)}.html">card</a></td>')
-        kind = "baseline" if row["kind"] == "baseline" else "entry"
-        body.append(f'<tr class="{kind}" data-entry="{_e(row["entry"])}">' + "".join(cells)
-                    + "</tr>")
+        cells.append(f'<td class="text files"><a href="{_link(predictions, site.root)}" '
+                     f'title="{_e(predictions.name)}">predictions</a><br>'
+                     f'<a href="cards/{_e(entry.name)}.html">card</a></td>')
+        kind = "baseline" if reference else "entry"
+        data_protocol = f' data-protocol="{_e(protocol.name)}"' if protocol else ""
+        body.append(f'<tr class="{kind}" data-entry="{_e(row["entry"])}"{data_protocol}>'
+                    + "".join(cells) + "</tr>")
     body += ["</tbody>", "</table>"]
-    figures = _figures(_figures_for(split), site, site)
+    figures = _figures(_figures_for(split), site.root, site.root)
     if figures:
         body += ["<h2>Figures</h2>", *figures]
-    return _page(f"nsrmp-bench leaderboard: {split}", body)
+    return _page(f"nsrmp-bench {'test board' if test else 'leaderboard'}: {split}", body)
 
 
-def _card_page(entry: Entry, site: Path, splits: Sequence[str]) -> str:
+def _card_page(entry: Entry, site: _Site) -> str:
     card = model_card(entry.model, entry.card)
-    folder = site / "cards"
+    folder = site.root / "cards"
+    unstated = [label for key, label in CARD_FIELDS if card.facts[key] == NOT_STATED]
     facts = []
     for key, label in CARD_FIELDS:
         facts += [f"<dt>{_e(label)}</dt>", f"<dd>{_e(card.facts[key])}</dd>"]
-    links = [f'<li>predictions: <a href="{_link(entry.predictions, folder)}">'
-             f"{_e(entry.predictions.name)}</a></li>"]
-    if entry.model_card is not None:
-        links.append(f'<li>full model card: <a href="{_link(entry.model_card, folder)}">'
-                     f"{_e(entry.model_card.name)}</a></li>")
+    predictions = site.predictions(entry)
+    links = [f'<li>predictions: <a href="{_link(predictions, folder)}">'
+             f"{_e(predictions.name)}</a></li>"]
+    full = site.full_card(entry)
+    if full is not None:
+        links.append(f'<li>full model card: <a href="{_link(full, folder)}">'
+                     f"{_e(full.name)}</a></li>")
     links.append(f'<li>board: <a href="../{_stem(entry.split)}.html">{_e(entry.split)}</a>'
                  "</li>")
+    protocol = site.protocol(entry)
     body = [
-        _nav(splits, depth=1),
+        _nav(site.splits, depth=1),
         f"<h1>Model card: {_e(entry.model)} on {_e(entry.split)}</h1>",
-        f"<p>{_e(entry.description)} (kind: {_e(entry.kind)})</p>",
-        '<dl class="card">', *facts, "</dl>",
-        f'<p class="note">Facts from {_e(card.source)}.</p>',
-        "<ul>", *links, "</ul>",
+        f"<p>{_e(entry.description)} (kind: {_e(entry.kind)}"
+        + (f"; protocol: {_e(protocol.label)}" if protocol else "") + ")</p>",
     ]
+    if len(unstated) == len(CARD_FIELDS):
+        body.append('<p class="warning">This entry\'s card gives no facts: its training '
+                    "data, training time, parameters, supervision and inputs are not "
+                    "stated, so nothing on this page says how the model was made. A "
+                    "submitter states them under <code>\"card\"</code> in the entry file "
+                    "(README, “How to submit”).</p>")
+    else:
+        note = f"Facts from {card.source}."
+        if unstated:
+            note += " Not stated: " + ", ".join(unstated) + "."
+        body += ['<dl class="card">', *facts, "</dl>", f'<p class="note">{_e(note)}</p>']
+    body += ["<ul>", *links, "</ul>"]
     return _page(f"model card: {entry.name}", body, depth=1)
 
 
-def _index_page(boards: Mapping[str, list[dict[str, Any]]], site: Path) -> str:
-    splits = list(boards)
-    body = [
-        _nav(splits),
-        "<h1>nsrmp-bench leaderboards</h1>",
-        '<p class="note">Generated by <code>nsrmp-bench leaderboard --data ROOT</code> from '
-        "<code>leaderboards/entries/</code>; every number is the public scorer's output on a "
-        "committed predictions file. It opens from disk: no server, nothing fetched.</p>",
-        '<table class="sortable" id="boards">',
+def _board_rows(title: str, boards: Mapping[str, list[dict[str, Any]]], site: _Site,
+                table_id: str) -> list[str]:
+    out = [
+        f'<table class="sortable" id="{table_id}">',
         '<thead><tr><th data-type="text">split part</th><th data-type="number">entries</th>'
-        '<th data-type="text">top entry</th><th data-type="number">top IoU-M</th></tr></thead>',
+        '<th data-type="text">best entry (reference rows aside)</th>'
+        '<th data-type="text">protocol</th><th data-type="number">its IoU-M</th>'
+        "</tr></thead>",
         "<tbody>",
     ]
     for split, rows in boards.items():
-        top = rows[0]
-        body.append(
-            f'<tr data-split="{_e(split)}"><td class="text"><a href="{_stem(split)}.html">'
-            f"{_e(split)}</a></td>"
-            f'<td data-value="{len(rows)}">{len(rows)}</td>'
-            f'<td class="text">{_e(top["model"])}</td>'
-            + _metric_cell(top["metrics"].get("iou_m")) + "</tr>")
-    body += ["</tbody>", "</table>"]
-    figures = _figures(list(FIGURE_CAPTIONS), site, site)
+        ranks = shared_ranks(rows)
+        ranked = [(r, k) for r, k in zip(rows, ranks, strict=True) if k]
+        cells = [f'<td class="text"><a href="{_stem(split)}.html">{_e(split)}</a></td>',
+                 f'<td data-value="{len(rows)}">{len(rows)}</td>']
+        if ranked:
+            best, rank = ranked[0]
+            tied = [r["model"] for r, k in ranked[1:] if k == rank]
+            also = (f' <span class="tie">shares rank 1 with {_e(", ".join(tied))}</span>'
+                    if tied else "")
+            protocol = site.protocol(site.entry(split, best["entry"]))
+            cells += [f'<td class="text">{site.swatch(best["model"])}'
+                      f'{_model_name(best["model"])}{also}</td>',
+                      f'<td class="text">{_e(protocol.label if protocol else "")}</td>',
+                      _metric_cell(best["metrics"].get("iou_m"))]
+        else:
+            cells += ['<td class="text">no entry but the reference rows</td>',
+                      '<td class="text"></td>', '<td data-value="">–</td>']
+        out.append(f'<tr data-split="{_e(split)}">' + "".join(cells) + "</tr>")
+    out += ["</tbody>", "</table>"]
+    return [f"<h2>{_e(title)}</h2>", *out] if title else out
+
+
+def _index_page(boards: Mapping[str, list[dict[str, Any]]], site: _Site) -> str:
+    official = {s: r for s, r in boards.items() if not is_test_board(s)}
+    tests = {s: r for s, r in boards.items() if is_test_board(s)}
+    body = [
+        _nav(site.splits),
+        "<h1>nsrmp-bench leaderboards</h1>",
+        '<p class="note">Generated by <code>nsrmp-bench leaderboard --data ROOT</code> from '
+        "<code>leaderboards/entries/</code>; every number is the public scorer's output on a "
+        "committed predictions file, copied here. It opens from disk and can be published "
+        "as it is: no server, nothing fetched, every link inside this folder.</p>",
+        f'<p class="note">{_e(RANK_RULE)}</p>',
+    ]
+    if official:
+        body += _board_rows("", official, site, "boards")
+    figures = _figures([a.name for a in FIGURES] + ["iou_m_by_category"], site.root,
+                       site.root)
     if figures:
         body += ["<h2>Generalisation</h2>", *figures]
-    tables = [p for p in (site / "paper-tables.md", site / "paper-tables.tex") if p.is_file()]
+    tables = [p for p in (site.root / "paper-tables.md", site.root / "paper-tables.tex")
+              if p.is_file()]
     if tables:
         links = ", ".join(f'<a href="{p.name}">{p.name}</a>' for p in tables)
         body += ["<h2>The paper's tables</h2>",
                  f"<p>Table I and Table II in the paper's layout, the paper's numbers beside "
                  f"ours: {links} (<code>nsrmp-bench report leaderboards/site --paper</code>)."
                  "</p>"]
+    if tests:
+        body += ["<h2>Test boards</h2>",
+                 '<p class="warning">Not leaderboards: a few instances each, to check that '
+                 "a pipeline runs end to end (the README's first run uses smoke-v2).</p>",
+                 *_board_rows("", tests, site, "test-boards")]
     return _page("nsrmp-bench leaderboards", body)
 
 
 def write_site(boards: Mapping[str, list[dict[str, Any]]], entries: Sequence[Entry],
-               site_dir: str | os.PathLike[str]) -> list[Path]:
-    """Write the pages and assets of ``boards`` into ``site_dir``; returns the pages."""
+               site_dir: str | os.PathLike[str], results: Results | None = None) -> list[Path]:
+    """Write the pages and assets of ``boards`` into ``site_dir``; returns the pages.
+
+    ``results`` (the entries' scored runs) gives each row's protocol; without it the
+    protocol column says "not scored here". The predictions files and model cards the
+    pages link are copied into ``site_dir``.
+    """
     if not boards:
         msg = "no boards to put on the site; build them with `nsrmp-bench leaderboard`"
         raise InvalidArgument(msg)
-    site = Path(os.path.normpath(Path(site_dir).absolute()))
-    (site / "cards").mkdir(parents=True, exist_ok=True)
+    root = Path(os.path.normpath(Path(site_dir).absolute()))
+    (root / "cards").mkdir(parents=True, exist_ok=True)
     assets = resources.files("nsrmp_bench.results")
     for name in ASSETS:
-        (site / name).write_text(assets.joinpath(name).read_text("utf-8"), "utf-8")
-    by_name = {e.name: e for e in entries}
-    splits = sorted(boards)
+        (root / name).write_text(assets.joinpath(name).read_text("utf-8"), "utf-8")
+    splits = sorted(boards, key=lambda s: (is_test_board(s), s))
     ordered = {s: boards[s] for s in splits}
-    pages = [site / "index.html"]
+    site = _Site(root, entries, results, splits)
+    pages = [root / "index.html"]
     pages[0].write_text(_index_page(ordered, site), "utf-8")
     for split in splits:
-        page = site / f"{_stem(split)}.html"
-        page.write_text(_board_page(split, ordered[split], by_name, site, splits), "utf-8")
+        page = root / f"{_stem(split)}.html"
+        page.write_text(_board_page(split, ordered[split], site), "utf-8")
         pages.append(page)
     on_boards = {row["entry"] for rows in ordered.values() for row in rows}
     for entry in entries:
         if entry.name in on_boards:
-            page = site / "cards" / f"{entry.name}.html"
-            page.write_text(_card_page(entry, site, splits), "utf-8")
+            page = root / "cards" / f"{entry.name}.html"
+            page.write_text(_card_page(entry, site), "utf-8")
             pages.append(page)
     return pages

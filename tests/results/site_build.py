@@ -25,7 +25,9 @@ def mirror(tmp: Path) -> Path:
 
 
 def build_site(tmp: Path, *, figures: bool = True) -> Path:
-    """The site of the committed runs (``leaderboards/site/summary.json``) in ``tmp``."""
+    """The site of the committed runs (``leaderboards/site/summary.json``) in ``tmp``:
+    redrawn whole as ``nsrmp-bench leaderboard --site-only`` does, or (``figures=False``)
+    the pages beside copies of the committed figures."""
     from nsrmp_bench.leaderboard import load_entries
     from nsrmp_bench.results.site import read_boards, write_site
     from nsrmp_bench.results.summary import Results
@@ -34,12 +36,15 @@ def build_site(tmp: Path, *, figures: bool = True) -> Path:
     site = boards / "site"
     results = Results.read(SITE)
     if figures:
-        from nsrmp_bench.results.publish import write_site_files
+        from nsrmp_bench.results.publish import rebuild_site
 
-        write_site_files(results, boards / "entries", boards, site)
-    else:  # the pages only, beside copies of the committed figures and tables
-        shutil.copytree(SITE / "figures", site / "figures")
-        for name in ("paper-tables.md", "paper-tables.tex"):
-            shutil.copy(SITE / name, site / name)
-        write_site(read_boards(boards), load_entries(boards / "entries"), site)
+        site.mkdir(parents=True)
+        results.write(site)
+        rebuild_site(boards / "entries", boards, site)
+        return site
+    # the pages only, beside copies of the committed figures and tables
+    shutil.copytree(SITE / "figures", site / "figures")
+    for name in ("paper-tables.md", "paper-tables.tex"):
+        shutil.copy(SITE / name, site / name)
+    write_site(read_boards(boards), load_entries(boards / "entries"), site, results)
     return site

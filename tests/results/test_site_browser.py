@@ -1,7 +1,10 @@
 """The static leaderboard opened from file:// in headless Chromium (Debian's ``chromium``,
-driven by Selenium through ``chromium-driver``): rows equal the JSON boards, sorting
-reorders them, every image loads, every link resolves to a file. A screenshot of the
-paper-v2 board is saved to ``$NSRMP_BENCH_ARTIFACTS`` (default ``test-artifacts/``)."""
+driven by Selenium through ``chromium-driver``) at 1280 px: rows equal the JSON boards,
+no element of any page reaches past the window's right edge, sorting reorders the rows,
+the protocol filter hides rows, every image loads and every link resolves to a file
+inside the site folder. A screenshot of the paper-v2 board is saved to
+``$NSRMP_BENCH_ARTIFACTS`` (default ``test-artifacts/``); ``scripts/site_screenshots.py``
+writes every page at 1280 and 1920 px for review."""
 
 from __future__ import annotations
 
@@ -41,7 +44,7 @@ def browser() -> Iterator[Any]:
     options = Options()
     options.binary_location = str(CHROMIUM)
     for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                "--window-size=1400,1100", "--allow-file-access-from-files"):
+                "--window-size=1280,900", "--allow-file-access-from-files"):
         options.add_argument(arg)
     driver = webdriver.Chrome(service=Service(executable_path=str(DRIVER)), options=options)
     try:
@@ -119,7 +122,37 @@ def _pages(site: Path) -> list[Path]:
     return sorted([*site.glob("*.html"), *site.glob("cards/*.html")])
 
 
-def test_every_image_loads_and_every_link_is_a_local_file(site: Path, browser: Any) -> None:
+def test_no_element_overflows_at_1280_px(site: Path, browser: Any) -> None:
+    assert browser.execute_script("return window.innerWidth;") <= 1280
+    for page in _pages(site):
+        _open(browser, page)
+        wide = browser.execute_script(
+            "const w = document.documentElement.clientWidth;"
+            "return [document.documentElement.scrollWidth, w,"
+            " Array.from(document.querySelectorAll('body *'))"
+            "  .filter(e => e.getBoundingClientRect().right > w + 0.5)"
+            "  .map(e => e.tagName + '.' + e.className + ' ' + e.textContent.slice(0, 30))];")
+        scroll, width, over = wide
+        assert scroll <= width and not over, (page.name, scroll, width, over[:5])
+
+
+def test_the_protocol_filter_hides_rows(site: Path, browser: Any) -> None:
+    _open(browser, site / "paper-v2-test.html")
+    visible = ("return Array.from(document.querySelectorAll('#board tbody tr'))"
+               ".filter(r => !r.hidden).map(r => r.getAttribute('data-entry'));")
+    every = browser.execute_script(visible)
+    browser.find_element("css selector", 'input[data-filter="protocol"][value="detected boxes"]'
+                         ).click()
+    shown = browser.execute_script(visible)
+    assert shown and len(shown) < len(every)
+    assert not any("+" in entry for entry in shown)
+    browser.find_element("css selector", 'input[data-filter="reference"]').click()
+    assert not any(e.endswith(("oracle-v1", "noop-v1", "random-v1"))
+                   for e in browser.execute_script(visible))
+
+
+def test_every_image_loads_and_every_link_is_a_file_inside_the_site(site: Path,
+                                                                    browser: Any) -> None:
     images = 0
     for page in _pages(site):
         _open(browser, page)
@@ -133,7 +166,11 @@ def test_every_image_loads_and_every_link_is_a_local_file(site: Path, browser: A
         for url in urls:
             parsed = urlparse(url)
             assert parsed.scheme == "file", f"{page.name} fetches {url}"
-            assert Path(unquote(parsed.path)).is_file(), f"{page.name}: broken link {url}"
+            target = Path(unquote(parsed.path))
+            assert target.is_file(), f"{page.name}: broken link {url}"
+            assert not target.is_symlink(), f"{page.name}: {url} is a link, not a copy"
+            assert Path(os.path.normpath(target)).is_relative_to(site), \
+                f"{page.name} links {url}, outside the site folder"
     assert images >= 3 + 3, "the index and the paper-v2 page show the three figures"
 
 

@@ -29,6 +29,8 @@ def _entries(tmp_path: Path, splits: set[str]) -> Path:
         if entry.split in splits:
             data = json.loads((BOARDS / "entries" / f"{entry.name}.json").read_text())
             data["predictions"] = str(entry.predictions)  # absolute: the copy moved
+            if entry.model_card is not None:
+                data["model_card"] = str(entry.model_card)
             (entries / f"{entry.name}.json").write_text(json.dumps(data))
     return entries
 
