@@ -22,6 +22,7 @@ from nsrmp_bench.canonical import sha256_file
 from nsrmp_bench.errors import DownloadError, InvalidArgument
 from nsrmp_bench.official_manifests import official_manifest, official_manifest_text
 from nsrmp_bench.split_specs import list_splits, load_split
+from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.manifest import read_manifest
 from nsrmp_bench.storage.split_root import split_root_parts
 
@@ -67,9 +68,10 @@ def pack(data_dir: str | os.PathLike[str], out: str | os.PathLike[str]) -> list[
         msg = f"{src} holds no manifest; generate the split first"
         raise InvalidArgument(msg)
     lines = [f"{e.path} {e.sha256} {e.bytes}" for e in entries]
-    (Path(out) / split_id / REGISTRY_NAME).write_text(
+    atomic_write_text(
+        Path(out) / split_id / REGISTRY_NAME,
         f"# nsrmp-bench release registry for {split_id}: <part>/<file> <sha256> <bytes>\n"
-        + "\n".join(lines) + "\n", "utf-8"
+        + "\n".join(lines) + "\n",
     )
     return entries
 
@@ -139,7 +141,7 @@ def download(
         for part in load_split(split_id).parts:
             text = official_manifest_text(split_id, part)
             if text is not None:
-                (out_dir / part / "manifest.json").write_text(text, "utf-8")
+                atomic_write_text(out_dir / part / "manifest.json", text)
     return files
 
 

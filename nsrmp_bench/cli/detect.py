@@ -17,6 +17,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nsrmp_bench.storage.atomic import output_file
+
 __all__ = ["add_arguments", "run"]
 
 
@@ -26,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument("--data", required=True, type=Path,
                         help="one split part's data directory (e.g. data/paper-v2/test)")
-    parser.add_argument("--out", required=True, type=Path, help="detections file (.jsonl)")
+    parser.add_argument("--out", required=True, type=output_file, help="detections file (.jsonl)")
     parser.add_argument("--detector", choices=DETECTORS, default=DEFAULT_DETECTOR,
                         help=f"which detector (default {DEFAULT_DETECTOR})")
     parser.add_argument("--checkpoint", type=Path, default=None,

@@ -12,9 +12,9 @@ corrupted download is deleted and refused with a clear message.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from nsrmp_bench.release import MIRROR_ENV, download
+from nsrmp_bench.storage.atomic import output_dir
 
 __all__ = ["add_arguments", "run"]
 
@@ -22,7 +22,7 @@ __all__ = ["add_arguments", "run"]
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("--split", required=True, help="split id, e.g. paper-v2")
-    parser.add_argument("--out", type=Path, required=True, help="where the parts go")
+    parser.add_argument("--out", type=output_dir, required=True, help="where the parts go")
     parser.add_argument("--base-url", default=None,
                         help=f"mirror base URL (default: ${MIRROR_ENV})")
     parser.add_argument("--trust-mirror-registry", action="store_true",

@@ -27,6 +27,7 @@ from pathlib import Path
 from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
 from nsrmp_bench.results.evaluate import evaluate
 from nsrmp_bench.results.summary import Results
+from nsrmp_bench.storage.atomic import output_dir
 
 __all__ = ["add_arguments", "render_table", "run"]
 
@@ -38,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "or predictions files")
     parser.add_argument("--data-root", required=True, type=Path,
                         help="folder holding <split id>/<part>/ data (e.g. data/)")
-    parser.add_argument("--out", required=True, type=Path,
+    parser.add_argument("--out", required=True, type=output_dir,
                         help="results folder (summary.json, CSVs, predictions/)")
     parser.add_argument("--generate", action="store_true",
                         help="generate the official test parts missing under the root first")

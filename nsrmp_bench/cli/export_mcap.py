@@ -7,11 +7,13 @@ from __future__ import annotations
 
 import argparse
 
+from nsrmp_bench.storage.atomic import output_file
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("data", help="a shard file (*.h5) or a data directory with manifest.json")
-    parser.add_argument("--out", required=True, help="the MCAP file to write")
+    parser.add_argument("--out", required=True, type=output_file, help="the MCAP file to write")
     parser.add_argument("--episodes", nargs="+", metavar="ID",
                         help="export only these episode ids (default: all)")
     parser.add_argument("--chunk-size", type=int, default=1 << 20,

@@ -30,6 +30,7 @@ from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_arg
 from nsrmp_bench.cli.progress import episode_progress
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.split_specs import load_split_file, resolve_split
+from nsrmp_bench.storage.atomic import output_dir
 from nsrmp_bench.verify import compare_with_committed
 
 __all__ = ["add_arguments", "run"]
@@ -41,7 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     which.add_argument("--split", help="split id, e.g. paper-v2 (or a spec file's path)")
     which.add_argument("--spec", type=Path, metavar="PATH",
                        help="a custom split spec file (JSON, the form of splits/paper-v2.json)")
-    parser.add_argument("--out", required=True, type=Path, help="output directory")
+    parser.add_argument("--out", required=True, type=output_dir, help="output directory")
     parser.add_argument("--part", action="append", default=None,
                         help="only this part (repeatable); default: every part")
     add_engine_arguments(parser, workers=2)

@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import argparse
 
+from nsrmp_bench.storage.atomic import output_dir
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("src", metavar="DIR", help="folder of the original release (searched "
                         "recursively for demo.json)")
-    parser.add_argument("--out", required=True, help="output data directory")
+    parser.add_argument("--out", required=True, type=output_dir, help="output data directory")
     parser.add_argument("--split", default="nsrm-original", help="split name to record")
     parser.add_argument("--shard-size", type=int, default=1000, help="episodes per shard")
     parser.add_argument("--camera", default="auto",

@@ -19,6 +19,7 @@ from pathlib import Path
 
 from nsrmp_bench.leaderboard import build
 from nsrmp_bench.results.publish import publish
+from nsrmp_bench.storage.atomic import output_dir
 
 __all__ = ["add_arguments", "run"]
 
@@ -31,9 +32,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="root holding <split id>/<part>/ data directories")
     parser.add_argument("--entries", type=Path, default=_REPO_BOARDS / "entries",
                         help="directory of entry files (default: the repository's)")
-    parser.add_argument("--out", type=Path, default=_REPO_BOARDS,
+    parser.add_argument("--out", type=output_dir, default=_REPO_BOARDS,
                         help="where the boards are written (default: the repository's)")
-    parser.add_argument("--site", type=Path, default=None,
+    parser.add_argument("--site", type=output_dir, default=None,
                         help="where the static site is written (default: OUT/site)")
     parser.add_argument("--no-site", action="store_true",
                         help="write the boards only (no site, no figures, no matplotlib)")

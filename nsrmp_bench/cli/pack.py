@@ -14,6 +14,7 @@ import argparse
 from pathlib import Path
 
 from nsrmp_bench.release import pack
+from nsrmp_bench.storage.atomic import output_dir
 
 __all__ = ["add_arguments", "run"]
 
@@ -21,7 +22,7 @@ __all__ = ["add_arguments", "run"]
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("data", type=Path, help="a generated split directory (or one part)")
-    parser.add_argument("--out", type=Path, required=True, help="release directory")
+    parser.add_argument("--out", type=output_dir, required=True, help="release directory")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -21,6 +21,8 @@ import argparse
 import time
 from pathlib import Path
 
+from nsrmp_bench.storage.atomic import output_file
+
 __all__ = ["add_arguments", "run"]
 
 
@@ -29,7 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", help="model name or id (nsrm, nsrm-v1)")
     parser.add_argument("--data", required=True, type=Path,
                         help="one split part's data directory (e.g. data/paper/test)")
-    parser.add_argument("--out", required=True, type=Path, help="predictions file to write")
+    parser.add_argument("--out", required=True, type=output_file, help="predictions file to write")
     parser.add_argument("--checkpoint", type=Path, default=None,
                         help="checkpoint (.pt) to use instead of the shipped one")
     parser.add_argument("--boxes", type=Path, default=None,

@@ -34,6 +34,7 @@ from nsrmp_bench.scoring.align import PredictionTable, align
 from nsrmp_bench.scoring.gold import GoldTable, load_episodes
 from nsrmp_bench.scoring.reader import read_submission_pending
 from nsrmp_bench.scoring.submission import Prediction, SubmissionHeader, write_submission
+from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.split_root import part_of_split
 from nsrmp_bench.vocabulary import ACTIONS
 
@@ -162,9 +163,7 @@ def run(args: argparse.Namespace) -> int:
     }
     if args.report is not None:
         report = {"totals": totals, "instances": [o.summary for o in outcomes]}
-        tmp = args.report.with_name(args.report.name + ".tmp")
-        tmp.write_text(json.dumps(report, indent=1, allow_nan=False) + "\n", "utf-8")
-        tmp.replace(args.report)
+        atomic_write_text(args.report, json.dumps(report, indent=1, allow_nan=False) + "\n")
     if not args.quiet:
         print(f"wrote {args.out}: {len(predictions)} instance(s); {ok}/{len(steps)} moves "
               f"succeeded, {refused} refused; in {len(failed)} instance(s) nothing could be "

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from nsrmp_bench.scoring.result import BREAKDOWNS
 from nsrmp_bench.scoring.scorer import DEFAULT_N_BOOT, DEFAULT_SEED, score
+from nsrmp_bench.storage.atomic import atomic_path, output_file
 
 __all__ = ["add_arguments", "run"]
 
@@ -38,7 +39,7 @@ def add_common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--allow-unknown-ids", action="store_true",
                         help="ignore (and count) lines whose id is not in the split instead "
                              "of refusing the file")
-    parser.add_argument("--json", type=Path, default=None, help="write the figures as JSON")
+    parser.add_argument("--json", type=output_file, default=None, help="write the figures as JSON")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
 
@@ -55,7 +56,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-breakdown-intervals", action="store_true",
                         help="breakdown means and counts only, no intervals (much faster on "
                              "huge splits)")
-    parser.add_argument("--per-instance", type=Path, default=None,
+    parser.add_argument("--per-instance", type=output_file, default=None,
                         help="also write each instance's values (.csv, or .parquet)")
 
 
@@ -76,7 +77,9 @@ def run(args: argparse.Namespace) -> int:
             from nsrmp_bench._optional import require
 
             require("pyarrow")
-            result.per_instance.to_parquet(args.per_instance)
+            with atomic_path(args.per_instance) as tmp:
+                result.per_instance.to_parquet(tmp)
         else:
-            result.per_instance.to_csv(args.per_instance)
+            with atomic_path(args.per_instance) as tmp:
+                result.per_instance.to_csv(tmp)
     return 0

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nsrmp_bench.errors import InvalidArgument, SubmissionError
+from nsrmp_bench.storage.atomic import atomic_open
 from nsrmp_bench.vocabulary import COLOURS, SHAPES
 
 __all__ = [
@@ -96,15 +96,10 @@ def write_detections(path: str | Path, split: str, detector: str,
         raise InvalidArgument(msg)
     header = {"format": DETECTIONS_FORMAT, "format_version": DETECTIONS_FORMAT_VERSION,
               "split": split, "detector": detector, **(extra or {})}
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.name + ".tmp")
-    with tmp.open("w", encoding="utf-8") as fh:
+    with atomic_open(out) as fh:
         fh.write(json.dumps({"header": header}) + "\n")
         for d in detections:
             fh.write(json.dumps(d.to_record(), separators=(",", ":")) + "\n")
-        fh.flush()
-        os.fsync(fh.fileno())
-    tmp.replace(out)
     return out
 
 

@@ -33,6 +33,7 @@ from nsrmp_bench.leaderboard import COLUMNS, Entry
 from nsrmp_bench.results.figures import CATEGORY_BARS, FIGURES
 from nsrmp_bench.results.model_cards import CARD_FIELDS, model_card
 from nsrmp_bench.scoring.metrics import METRICS
+from nsrmp_bench.storage.atomic import atomic_write_text
 
 __all__ = ["ASSETS", "FIGURE_CAPTIONS", "read_boards", "write_site"]
 
@@ -248,20 +249,20 @@ def write_site(boards: Mapping[str, list[dict[str, Any]]], entries: Sequence[Ent
     (site / "cards").mkdir(parents=True, exist_ok=True)
     assets = resources.files("nsrmp_bench.results")
     for name in ASSETS:
-        (site / name).write_text(assets.joinpath(name).read_text("utf-8"), "utf-8")
+        atomic_write_text(site / name, assets.joinpath(name).read_text("utf-8"))
     by_name = {e.name: e for e in entries}
     splits = sorted(boards)
     ordered = {s: boards[s] for s in splits}
     pages = [site / "index.html"]
-    pages[0].write_text(_index_page(ordered, site), "utf-8")
+    atomic_write_text(pages[0], _index_page(ordered, site))
     for split in splits:
         page = site / f"{_stem(split)}.html"
-        page.write_text(_board_page(split, ordered[split], by_name, site, splits), "utf-8")
+        atomic_write_text(page, _board_page(split, ordered[split], by_name, site, splits))
         pages.append(page)
     on_boards = {row["entry"] for rows in ordered.values() for row in rows}
     for entry in entries:
         if entry.name in on_boards:
             page = site / "cards" / f"{entry.name}.html"
-            page.write_text(_card_page(entry, site, splits), "utf-8")
+            atomic_write_text(page, _card_page(entry, site, splits))
             pages.append(page)
     return pages

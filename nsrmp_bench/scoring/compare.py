@@ -35,6 +35,7 @@ from nsrmp_bench.scoring.scorer import (
     read_predictions,
 )
 from nsrmp_bench.scoring.version import SCORER_ID
+from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.split_root import part_of_split
 
 __all__ = ["DEFAULT_N_PERM", "Comparison", "compare"]
@@ -72,9 +73,8 @@ class Comparison:
 
     def write_json(self, path: str | Path) -> Path:
         """Write :meth:`to_dict` as strict JSON."""
-        p = Path(path)
-        p.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n", "utf-8")
-        return p
+        return atomic_write_text(
+            path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
 
     def render(self, console: Any = None) -> None:
         """Print the differences as a rich table."""

@@ -15,6 +15,7 @@ from typing import Any, cast
 import pandas as pd
 
 from nsrmp_bench.errors import InvalidArgument, UnknownId
+from nsrmp_bench.storage.atomic import atomic_write_text
 
 __all__ = ["BREAKDOWNS", "BREAKDOWN_SHOWN", "SHORT_BREAKDOWN", "ScoreResult", "json_ready"]
 
@@ -155,12 +156,8 @@ class ScoreResult:
 
     def write_json(self, path: str | Path, *, per_instance: bool = False) -> Path:
         """Write :meth:`to_dict` as strict JSON."""
-        p = Path(path)
-        p.write_text(
-            json.dumps(self.to_dict(per_instance=per_instance), indent=2, allow_nan=False) + "\n",
-            encoding="utf-8",
-        )
-        return p
+        return atomic_write_text(path, json.dumps(
+            self.to_dict(per_instance=per_instance), indent=2, allow_nan=False) + "\n")
 
     def render(self, console: Any = None, *, breakdown: str = "short") -> None:
         """Print the figures as rich tables: the headline table, IoU-M after each step, and

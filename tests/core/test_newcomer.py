@@ -1,0 +1,86 @@
+"""What a new user runs into first (issue 26): output folders, signals, names, messages.
+
+Each test is one or a few CLI calls on real data and an assertion on the exit status and
+the message.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from nsrmp_bench.cli.main import main
+from nsrmp_bench.config import EpisodeConfig
+from nsrmp_bench.generators.sampler import sample_episode
+
+SPLIT = "newcomer-v1"
+
+
+def cli(*args: str | Path) -> int:
+    return main([str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Six symbolic episodes as JSON Lines (the scorer reads them like a data directory)."""
+    configs = [EpisodeConfig(objects=4, steps=1), EpisodeConfig(objects=6, steps=2)]
+    eps = [sample_episode(configs[i % 2], 7, i, f"{SPLIT}-test-{i:06d}", max_attempts=200)
+           for i in range(6)]
+    path = tmp_path_factory.mktemp("newcomer") / "episodes.jsonl"
+    path.write_text("".join(json.dumps(e.to_dict()) + "\n" for e in eps), "utf-8")
+    return path
+
+
+# 1. Output folders ---------------------------------------------------------------------
+
+def test_every_writer_creates_a_missing_output_folder(tmp_path: Path, data: Path) -> None:
+    new = tmp_path / "not" / "yet"
+    noop, oracle = new / "a" / "noop.jsonl", new / "b" / "oracle.jsonl"
+    assert cli("baseline", "noop", "--data", data, "--out", noop, "--split", SPLIT) == 0
+    assert cli("baseline", "oracle", "--data", data, "--out", oracle, "--split", SPLIT) == 0
+    assert cli("score", noop, "--data", data, "--split", SPLIT, "--n-boot", "0", "--quiet",
+               "--json", new / "c" / "s.json", "--per-instance", new / "d" / "p.csv") == 0
+    assert cli("compare", oracle, noop, "--data", data, "--split", SPLIT, "--n-boot", "0",
+               "--n-perm", "10", "--quiet", "--json", new / "e" / "c.json") == 0
+    written = sorted(p.relative_to(new).as_posix() for p in new.rglob("*") if p.is_file())
+    assert written == ["a/noop.jsonl", "b/oracle.jsonl", "c/s.json", "d/p.csv", "e/c.json"]
+    assert json.loads((new / "c" / "s.json").read_text())["split"] == SPLIT
+
+
+def test_a_folder_where_a_file_is_meant_is_refused_before_any_work(
+        tmp_path: Path, data: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    folder = tmp_path / "here"
+    folder.mkdir()
+    for argv in (("baseline", "noop", "--data", data, "--split", SPLIT, "--out", folder),
+                 ("score", data, "--data", data, "--json", folder),
+                 ("export-mcap", data, "--out", folder)):
+        with pytest.raises(SystemExit) as stop:
+            cli(*argv)
+        assert stop.value.code == 2
+        err = capsys.readouterr().err
+        assert f"'{folder}' is a folder, but a file is meant here" in err
+    assert list(folder.iterdir()) == []  # no .tmp left behind
+    a_file = tmp_path / "file.jsonl"
+    a_file.write_text("x\n")
+    with pytest.raises(SystemExit) as stop:
+        cli("generate", "--split", "smoke-v2", "--out", a_file)
+    assert stop.value.code == 2
+    assert "is a file, but a folder is meant here" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        cli("baseline", "noop", "--data", data, "--split", SPLIT, "--out", a_file / "x.jsonl")
+    assert f"'{a_file}' is a file, not a folder" in capsys.readouterr().err
+
+
+def test_atomic_write_leaves_nothing_on_failure(tmp_path: Path) -> None:
+    from nsrmp_bench.storage.atomic import atomic_open, atomic_write_text
+
+    target = tmp_path / "deep" / "er" / "out.txt"
+    assert atomic_write_text(target, "one\n") == target
+    assert target.read_text() == "one\n"
+    with pytest.raises(RuntimeError), atomic_open(target) as fh:
+        fh.write("half")
+        raise RuntimeError
+    assert target.read_text() == "one\n"
+    assert sorted(p.name for p in target.parent.iterdir()) == ["out.txt"]
