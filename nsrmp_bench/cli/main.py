@@ -13,6 +13,7 @@ import sys
 from collections.abc import Sequence
 
 from nsrmp_bench import __version__
+from nsrmp_bench.engine.signals import EXIT_SIGTERM, Terminated, sigterm_as_interrupt
 from nsrmp_bench.errors import NSRMPError
 
 __all__ = ["VERBS", "main"]
@@ -77,13 +78,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     module = importlib.import_module(_module_name(args.verb))
     try:
-        status: int = module.run(args)
+        with sigterm_as_interrupt():
+            status: int = module.run(args)
     except NSRMPError as exc:
         print(f"nsrmp-bench {args.verb}: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"nsrmp-bench {args.verb}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        by, status = (("SIGTERM", EXIT_SIGTERM) if isinstance(exc, Terminated)
+                      else ("Ctrl-C", 130))
+        print(f"nsrmp-bench {args.verb}: stopped by {by}; its workers are stopped and no "
+              "file that looks complete is half-written; run the same command again (generate "
+              "resumes where it stopped)", file=sys.stderr)
+        return status
     return status
 
 

@@ -84,3 +84,65 @@ def test_atomic_write_leaves_nothing_on_failure(tmp_path: Path) -> None:
         raise RuntimeError
     assert target.read_text() == "one\n"
     assert sorted(p.name for p in target.parent.iterdir()) == ["out.txt"]
+
+
+# 2. SIGTERM ----------------------------------------------------------------------------
+
+def _descendants(pid: int) -> set[int]:
+    """Every process below ``pid`` (read from /proc)."""
+    parents: dict[int, int] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        parents[int(stat.parent.name)] = int(fields[1])
+    found, frontier = set(), {pid}
+    while frontier:
+        frontier = {c for c, p in parents.items() if p in frontier} - found
+        found |= frontier
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
+def test_sigterm_stops_generate_and_its_workers_then_it_resumes(tmp_path: Path) -> None:
+    pytest.importorskip("pybullet")
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "smoke"
+    argv = [sys.executable, "-m", "nsrmp_bench.cli.main", "generate", "--split", "smoke-v2",
+            "--out", str(out), "--workers", "2", "--shard-size", "2", "--quiet"]
+    proc = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 180
+    while not list(out.glob("test/*.h5.tmp")):  # a worker is writing a shard
+        assert proc.poll() is None and time.monotonic() < deadline, proc.stderr
+        time.sleep(0.05)
+    run = _descendants(proc.pid)
+    assert len(run) >= 3  # two workers, the manager (and the resource tracker)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert "stopped by SIGTERM" in err and "Traceback" not in err
+    time.sleep(1.0)
+    assert [pid for pid in run if _alive(pid)] == []
+    assert not (out / "test" / "manifest.json").exists()
+
+    assert main(["generate", "--split", "smoke-v2", "--out", str(out), "--workers", "1",
+                 "--shard-size", "2", "--quiet"]) == 0
+    from nsrmp_bench.official_manifests import official_manifest
+
+    manifest = json.loads((out / "test" / "manifest.json").read_text())
+    committed = official_manifest("smoke-v2", "test")
+    assert committed is not None and manifest["root_hash"] == committed["root_hash"]
+    assert not list(out.glob("test/*.tmp"))
