@@ -175,9 +175,9 @@ def evaluate(
         parts = {p: d if d is not None else _generate(root, p, workers, engine, tell)
                  for p, d in parts.items()}
     found = {p: d for p, d in parts.items() if d is not None}
-    (folder / "predictions").mkdir(parents=True, exist_ok=True)
-
     jobs = [job for source in resolved for job in _jobs(source, found, root, folder)]
+    _refuse_twice_scored(jobs)
+    (folder / "predictions").mkdir(parents=True, exist_ok=True)
     runs: list[Run] = []
     tables: dict[str, list[pd.DataFrame]] = {}
     with contextlib.ExitStack() as stack:
@@ -239,6 +239,23 @@ def evaluate_job(job: Job, folder: str, *,
     if report is not None:
         report.advance()
     return run, long_table(job.model, result), line
+
+
+def _refuse_twice_scored(jobs: Sequence[Job]) -> None:
+    """Two runs of one model on one split part: refused before anything runs."""
+    seen: dict[tuple[str, str], Job] = {}
+    for job in jobs:
+        first = seen.setdefault((job.model, job.split_part), job)
+        if first is not job:
+            msg = (f"{_what(first)} and {_what(job)} are both model {job.model!r} on "
+                   f"{job.split_part}; a results folder holds one run per model and split "
+                   "part: drop one, or give one its own name (`nsrmp-bench predict "
+                   "--checkpoint ... --name NAME` writes it into the file's header)")
+            raise InvalidArgument(msg)
+
+
+def _what(job: Job) -> str:
+    return str(job.source.path) if job.source.path is not None else repr(job.source.name)
 
 
 def _jobs(source: Source, found: dict[str, Path], root: Path, folder: Path) -> list[Job]:

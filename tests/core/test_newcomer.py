@@ -146,3 +146,62 @@ def test_sigterm_stops_generate_and_its_workers_then_it_resumes(tmp_path: Path) 
     committed = official_manifest("smoke-v2", "test")
     assert committed is not None and manifest["root_hash"] == committed["root_hash"]
     assert not list(out.glob("test/*.tmp"))
+
+
+# 3. A retrained model is not the shipped one -------------------------------------------
+
+def test_a_checkpoint_that_is_not_the_shipped_one_gets_its_own_name(
+        tmp_path: Path, smoke_v2_test: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("torch")
+    import shutil
+
+    import torch
+
+    from nsrmp_bench.reference_model.checkpoints import save_checkpoint, shipped_checkpoint
+    from nsrmp_bench.reference_model.part_prediction import checkpoint_label
+
+    shipped = shipped_checkpoint("nsrm-v1")
+    same = tmp_path / "copy" / "best.pt"
+    same.parent.mkdir()
+    shutil.copyfile(shipped, same)
+    assert checkpoint_label("nsrm-v1", same) == "nsrm-v1"  # the same bytes: the shipped one
+
+    payload = torch.load(shipped, weights_only=False, map_location="cpu")
+    state = dict(payload["state"])
+    key = next(k for k, v in state.items() if v.is_floating_point())
+    state[key] = state[key] + 0.01
+    retrained = save_checkpoint(tmp_path / "run7" / "best.pt", "nsrm-v1", payload["config"],
+                                payload["vocab"], state, payload["extra"])
+    label = checkpoint_label("nsrm-v1", retrained)
+    assert label.startswith("nsrm-v1@run7-") and len(label) == len("nsrm-v1@run7-") + 8
+
+    pred = tmp_path / "mine.jsonl"
+    assert cli("predict", "nsrm", "--data", smoke_v2_test, "--checkpoint", retrained,
+               "--out", pred, "--quiet") == 0
+    header = json.loads(pred.read_text().splitlines()[0])["header"]
+    assert header["model"] == label and header["base_model"] == "nsrm-v1"
+    noop = tmp_path / "noop.jsonl"
+    assert cli("baseline", "noop", "--data", smoke_v2_test, "--out", noop) == 0
+    capsys.readouterr()
+    assert cli("compare", pred, noop, "--data", smoke_v2_test, "--n-boot", "0",
+               "--n-perm", "10") == 0
+    assert label in capsys.readouterr().out
+
+
+# 5. evaluate refuses a model scored twice before it scores anything --------------------
+
+def test_evaluate_refuses_two_files_of_one_model_first(
+        tmp_path: Path, smoke_v2_root: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    root = tmp_path / "data"
+    root.mkdir()
+    (root / "smoke-v2").symlink_to(smoke_v2_root, target_is_directory=True)
+    one, two = tmp_path / "one.jsonl", tmp_path / "two.jsonl"
+    for path in (one, two):
+        assert cli("baseline", "noop", "--data", root / "smoke-v2" / "test", "--out", path) == 0
+    capsys.readouterr()
+    out = tmp_path / "results"
+    assert cli("evaluate", one, two, "--data-root", root, "--out", out, "--workers", "1") == 2
+    err = capsys.readouterr().err
+    assert f"{one} and {two} are both model 'noop-v1' on smoke-v2/test" in err
+    assert "--name NAME" in err
+    assert not out.exists()  # nothing was scored or written
