@@ -58,6 +58,12 @@ class Comparison:
     settings: dict[str, Any] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
 
+    def __repr__(self) -> str:  # the frames would print hundreds of lines; see render()
+        diff = float(self.table["diff"].to_dict().get("iou_m", float("nan")))
+        return (f"Comparison(split={self.split!r}, a={self.a!r}, b={self.b!r}, "
+                f"iou_m diff={diff:.4f}; .render() prints every difference, .table holds "
+                "them)")
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-able form (NaN as null)."""
         out: dict[str, Any] = json_ready({

@@ -91,6 +91,12 @@ class ScoreResult:
         """IoU-M, the headline figure."""
         return self.value("iou_m")
 
+    def __repr__(self) -> str:  # the frames would print hundreds of lines; see render()
+        n = self.counts.get("instances", len(self.per_instance))
+        return (f"ScoreResult(split={self.split!r}, model={self.model!r}, "
+                f"iou_m={self.headline:.4f}, n={n}, warnings={len(self.warnings)}; "
+                ".render() prints every figure, .summary holds them)")
+
     def value(self, metric: str) -> float:
         """One metric's value (NaN when not reported, e.g. success_3d without positions)."""
         if metric not in self.summary.index:

@@ -205,3 +205,58 @@ def test_evaluate_refuses_two_files_of_one_model_first(
     assert f"{one} and {two} are both model 'noop-v1' on smoke-v2/test" in err
     assert "--name NAME" in err
     assert not out.exists()  # nothing was scored or written
+
+
+# 6. Scoring from Python ----------------------------------------------------------------
+
+def test_score_takes_a_list_of_predictions_and_an_open_collection(
+        tmp_path: Path, smoke_v2_test: Path) -> None:
+    import warnings
+
+    import nsrmp_bench as nb
+    from nsrmp_bench.errors import InvalidArgument
+    from nsrmp_bench.scoring.submission import Prediction
+
+    data = nb.open(smoke_v2_test)
+    noop = []
+    for i in range(len(data)):
+        ep = data.episode(i, images=False)
+        assert ep.rendering is not None
+        noop.append(Prediction(id=ep.id, boxes=ep.rendering.targets.boxes_amodal[0]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = nb.score(noop, data, n_boot=0)  # the collection knows its split
+    assert result.split == "smoke-v2/test" and not result.warnings
+    assert result.counts["predicted"] == len(data)
+
+    file = tmp_path / "noop.jsonl"
+    assert cli("baseline", "noop", "--data", smoke_v2_test, "--out", file) == 0
+    from_file = nb.score(file, smoke_v2_test, n_boot=0)
+    assert from_file.headline == pytest.approx(result.headline)
+    assert not nb.score(file, data, n_boot=0).warnings
+
+    episodes = [data.episode(i, images=False) for i in range(len(data))]
+    with pytest.raises(InvalidArgument, match=r"pass split='smoke-v2/test'"):
+        nb.score(noop, episodes)  # nothing names the split
+    assert nb.score(noop, episodes, split="smoke-v2/test", n_boot=0).headline == \
+        pytest.approx(result.headline)
+    with pytest.raises(InvalidArgument, match=r"predictions\[1\] is a str"):
+        nb.score([noop[0], "x"], data)
+
+
+# 7. The package and its objects at the prompt ------------------------------------------
+
+def test_dir_and_short_reprs(smoke_v2_test: Path, tmp_path: Path) -> None:
+    import nsrmp_bench as nb
+
+    assert {"open", "score", "load_model", "__version__"} <= set(dir(nb))
+    assert "TYPE_CHECKING" not in dir(nb)
+    data = nb.open(smoke_v2_test)
+    ep = data[0]
+    text = repr(ep)
+    assert len(text) < 300 and ep.id in text and "rendered state" in text
+    assert " 1 steps" not in text
+    file = tmp_path / "noop.jsonl"
+    assert cli("baseline", "noop", "--data", smoke_v2_test, "--out", file) == 0
+    result = nb.score(file, data, n_boot=0)
+    assert len(repr(result).splitlines()) == 1 and "iou_m=" in repr(result)
