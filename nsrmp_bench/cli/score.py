@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nsrmp_bench.errors import SubmissionError
 from nsrmp_bench.scoring.result import BREAKDOWNS
 from nsrmp_bench.scoring.scorer import DEFAULT_N_BOOT, DEFAULT_SEED, score
 from nsrmp_bench.storage.atomic import atomic_path, output_file
@@ -68,6 +69,11 @@ def run(args: argparse.Namespace) -> int:
         breakdown_intervals=not args.no_breakdown_intervals, split=args.split,
         unknown_ids="warn" if args.allow_unknown_ids else "error",
     )
+    if not result.counts.get("predicted", 0):
+        msg = (f"{args.predictions}: not one instance of {result.split or 'the data'} is "
+               "predicted (a header without predictions, or only unknown ids); it would score "
+               "zero: write one line per instance after the header")
+        raise SubmissionError(msg)
     if not args.quiet:
         result.render(breakdown=args.breakdown)
     if args.json is not None:

@@ -260,3 +260,34 @@ def test_dir_and_short_reprs(smoke_v2_test: Path, tmp_path: Path) -> None:
     assert cli("baseline", "noop", "--data", smoke_v2_test, "--out", file) == 0
     result = nb.score(file, data, n_boot=0)
     assert len(repr(result).splitlines()) == 1 and "iou_m=" in repr(result)
+
+
+# 10. check-submission without --data, and a file that predicts nothing -----------------
+
+def test_check_submission_uses_the_committed_manifest_and_refuses_nothing_predicted(
+        tmp_path: Path, smoke_v2_test: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    good = tmp_path / "noop.jsonl"
+    assert cli("baseline", "noop", "--data", smoke_v2_test, "--out", good) == 0
+    capsys.readouterr()
+    assert cli("check-submission", good, "--split", "smoke-v2") == 0
+    out = capsys.readouterr().out
+    assert "16 of 16 instances predicted" in out and "committed manifest" in out
+
+    lines = good.read_text().splitlines()
+    record = json.loads(lines[2])
+    record["boxes"] = record["boxes"][:-1]
+    for key in ("step_boxes", "positions"):
+        record.pop(key, None)
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text("\n".join([lines[0], lines[1], json.dumps(record)]) + "\n")
+    assert cli("check-submission", bad, "--split", "smoke-v2") == 2
+    err = capsys.readouterr().err
+    n = len(record["boxes"])
+    assert f"line 3: 'boxes' has {n} boxes but instance {record['id']!r} has {n + 1}" in err
+
+    header_only = tmp_path / "header.jsonl"
+    header_only.write_text(lines[0] + "\n")
+    assert cli("check-submission", header_only, "--split", "smoke-v2") == 2
+    assert "holds a header but no prediction" in capsys.readouterr().err
+    assert cli("score", header_only, "--data", smoke_v2_test, "--n-boot", "0") == 2
+    assert "not one instance of smoke-v2/test is predicted" in capsys.readouterr().err
