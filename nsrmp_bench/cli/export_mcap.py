@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 
+from nsrmp_bench.cli.numbers import positive_int
 from nsrmp_bench.storage.atomic import output_file
 
 
@@ -16,7 +17,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, type=output_file, help="the MCAP file to write")
     parser.add_argument("--episodes", nargs="+", metavar="ID",
                         help="export only these episode ids (default: all)")
-    parser.add_argument("--chunk-size", type=int, default=1 << 20,
+    parser.add_argument("--chunk-size", type=positive_int, default=1 << 20,
                         help="uncompressed MCAP chunk size in bytes (default 1 MiB)")
 
 

@@ -27,6 +27,7 @@ from typing import Any
 from rich.console import Console
 
 from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
+from nsrmp_bench.cli.numbers import positive_int
 from nsrmp_bench.cli.progress import episode_progress
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.split_specs import load_split_file, resolve_split
@@ -46,9 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--part", action="append", default=None,
                         help="only this part (repeatable); default: every part")
     add_engine_arguments(parser, workers=2)
-    parser.add_argument("--shard-size", type=int, default=100,
+    parser.add_argument("--shard-size", type=positive_int, default=100,
                         help="instances per shard (default 100)")
-    parser.add_argument("--limit", type=int, default=None,
+    parser.add_argument("--limit", type=positive_int, default=None,
                         help="only the first N instances of each part (not the official split)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 
+from nsrmp_bench.cli.numbers import positive_int
 from nsrmp_bench.storage.atomic import output_dir
 
 
@@ -18,7 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "recursively for demo.json)")
     parser.add_argument("--out", required=True, type=output_dir, help="output data directory")
     parser.add_argument("--split", default="nsrm-original", help="split name to record")
-    parser.add_argument("--shard-size", type=int, default=1000, help="episodes per shard")
+    parser.add_argument("--shard-size", type=positive_int, default=1000, help="episodes per shard")
     parser.add_argument("--camera", default="auto",
                         choices=["auto", "small_table_view", "big_table_view_2"],
                         help="camera preset the images were rendered with (default: auto, "

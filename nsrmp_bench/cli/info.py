@@ -19,6 +19,7 @@ from rich.table import Table
 
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.split_specs import SPLIT_ID_RE, SplitSpec, load_split_file, resolve_split
+from nsrmp_bench.storage.manifest import MANIFEST_NAME
 
 __all__ = ["add_arguments", "category_frame", "run"]
 
@@ -74,6 +75,8 @@ def run(args: argparse.Namespace) -> int:
         raise InvalidArgument(msg)
     target = str(args.spec) if args.spec is not None else args.target
     spec = None
+    if args.spec is None and Path(target).name == MANIFEST_NAME and Path(target).is_file():
+        target = str(Path(target).parent)  # a part's manifest: count that part's data
     if args.spec is not None or (target.endswith(".json") and Path(target).is_file()):
         spec = load_split_file(target)
     frame = category_frame(spec if spec is not None else target)

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
+from nsrmp_bench.cli.numbers import positive_int
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.scoring.align import PredictionTable, align
@@ -60,7 +61,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--profile", default="fast", choices=_PROFILES,
                         help="robot motion profile (default fast)")
     add_engine_arguments(parser, workers=1)
-    parser.add_argument("--limit", type=int, default=None,
+    parser.add_argument("--limit", type=positive_int, default=None,
                         help="replay only the first N predicted instances (in data order)")
     parser.add_argument("--report", type=Path, default=None,
                         help="write per-instance replay details (moves, success, errors) as JSON")

@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nsrmp_bench.cli.numbers import non_negative_int
 from nsrmp_bench.errors import SubmissionError
 from nsrmp_bench.scoring.result import BREAKDOWNS
 from nsrmp_bench.scoring.scorer import DEFAULT_N_BOOT, DEFAULT_SEED, score
@@ -31,9 +32,9 @@ def add_common(parser: argparse.ArgumentParser) -> None:
                              "symbolic episodes)")
     parser.add_argument("--split", default=None,
                         help="split id, when the data does not record it")
-    parser.add_argument("--seed", type=int, default=DEFAULT_SEED,
+    parser.add_argument("--seed", type=non_negative_int, default=DEFAULT_SEED,
                         help=f"seed of the bootstrap (default {DEFAULT_SEED})")
-    parser.add_argument("--n-boot", type=int, default=DEFAULT_N_BOOT,
+    parser.add_argument("--n-boot", type=non_negative_int, default=DEFAULT_N_BOOT,
                         help=f"bootstrap resamples (default {DEFAULT_N_BOOT}; 0: no intervals)")
     parser.add_argument("--level", type=float, default=0.95,
                         help="confidence level of the intervals (default 0.95)")

@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nsrmp_bench.errors import InvalidArgument, SubmissionError
+from nsrmp_bench.scoring.version import SUBMISSION_FORMAT
 from nsrmp_bench.storage.atomic import atomic_open
 from nsrmp_bench.vocabulary import COLOURS, SHAPES
 
@@ -163,6 +164,11 @@ def read_detections(path: str | Path) -> DetectionFile:
                 continue
             if n == 1:
                 h = rec.get("header") if isinstance(rec, dict) else None
+                if isinstance(h, dict) and h.get("format") == SUBMISSION_FORMAT:
+                    msg = (f"{p} is a predictions file (format {SUBMISSION_FORMAT!r}), not a "
+                           "detections file; make detections of the part with `nsrmp-bench "
+                           "detect --data DATA --out detections.jsonl` and pass that")
+                    raise InvalidArgument(msg)
                 if not isinstance(h, dict) or h.get("format") != DETECTIONS_FORMAT:
                     problems.append(
                         f"line 1: expected the header {{\"header\": {{\"format\": "

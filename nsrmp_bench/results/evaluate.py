@@ -39,7 +39,7 @@ from nsrmp_bench.scoring.reader import read_submission_pending
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
 from nsrmp_bench.split_specs import OFFICIAL_SPLITS, list_splits, load_split
-from nsrmp_bench.storage.split_root import find_part
+from nsrmp_bench.storage.split_root import find_part, split_root_parts
 
 __all__ = [
     "Job", "Source", "evaluate", "evaluate_job", "find_part", "long_table",
@@ -193,6 +193,14 @@ def evaluate(
             tables.setdefault(job.split_part, []).append(table)
             tell(line)
     if not runs:
+        held = split_root_parts(root)
+        if held or (root / "manifest.json").is_file():
+            what = (f"a split root (the parts {', '.join(held)} of one split)" if held
+                    else "one part's data")
+            msg = (f"--data-root {root} is {what}; --data-root is the folder above the "
+                   "split roots, each named for its split (data/ holding data/smoke-v2/test/ "
+                   f"or data/smoke/test/): pass {root.parent}")
+            raise InvalidArgument(msg)
         msg = (f"no official test part under {root} (looked for "
                f"{', '.join(official_test_parts())} as ROOT/<split id>/<part>); generate "
                "them, or pass --generate")

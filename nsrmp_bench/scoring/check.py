@@ -81,7 +81,11 @@ def check_submission(
     if split is not None and not split_matches(split, sub.header.split):
         msg = (
             f"{sub.source}: the header says split {sub.header.split!r}, but you are checking it "
-            f"for split {split!r}; write {split!r} in the header if the predictions are for it"
+            f"for split {split!r}; "
+            + (f"write {split!r} in the header if the predictions are for it"
+               if _is_known_split(split) else
+               f"{split!r} is not a shipped split: check it for the one it was made on "
+               f"(--split {sub.header.split})")
         )
         if pending.count:
             msg += "\n" + pending.message()
@@ -145,3 +149,11 @@ def _check_with_manifest(sub: Submission, split: str, objects: dict[str, int],
                          "order")
     return {"instances": len(objects), "predicted": len(predicted),
             "missing": len(objects) - len(predicted), "unknown_ids": unknown}
+
+
+def _is_known_split(split: str) -> bool:
+    try:
+        load_split(split.partition("/")[0])
+    except NSRMPError:
+        return False
+    return True

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -291,3 +292,107 @@ def test_check_submission_uses_the_committed_manifest_and_refuses_nothing_predic
     assert "holds a header but no prediction" in capsys.readouterr().err
     assert cli("score", header_only, "--data", smoke_v2_test, "--n-boot", "0") == 2
     assert "not one instance of smoke-v2/test is predicted" in capsys.readouterr().err
+
+
+# 8. Messages that lead somewhere ---------------------------------------------------------
+
+def _refused_at_parse(capsys: pytest.CaptureFixture[str], *argv: str | Path) -> str:
+    with pytest.raises(SystemExit) as stop:
+        cli(*argv)
+    assert stop.value.code == 2
+    return capsys.readouterr().err
+
+
+def test_messages_name_what_was_given_and_the_way_on(
+        tmp_path: Path, smoke_v2_root: Path, smoke_v2_test: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    data_root = tmp_path / "data"
+    data_root.mkdir()
+    (data_root / "smoke-v2").symlink_to(smoke_v2_root, target_is_directory=True)
+    assert cli("info", data_root) == 2  # a folder of split roots
+    err = capsys.readouterr().err
+    assert "is a data root holding the split roots smoke-v2/ (parts test)" in err
+    assert f"e.g. {data_root / 'smoke-v2' / 'test'}" in err and "resume" not in err
+
+    noop = tmp_path / "noop.jsonl"
+    assert cli("baseline", "noop", "--data", smoke_v2_test / "manifest.json", "--out",
+               noop) == 0  # a part's manifest stands for its part
+    assert cli("score", noop, "--data", smoke_v2_test / "manifest.json", "--n-boot", "0",
+               "--quiet") == 0
+    capsys.readouterr()
+
+    assert cli("evaluate", "noop", "--data-root", data_root / "smoke-v2", "--out",
+               tmp_path / "r", "--workers", "1") == 2
+    err = capsys.readouterr().err
+    assert "is a split root (the parts test of one split)" in err
+    assert f"pass {smoke_v2_root.resolve().parent}" in err
+
+    assert cli("check-submission", noop, "--split", "foo-v9") == 2
+    err = capsys.readouterr().err
+    assert "'foo-v9' is not a shipped split" in err and "--split smoke-v2/test" in err
+    assert "write 'foo-v9' in the header" not in err
+
+    out = tmp_path / "gen"
+    err = _refused_at_parse(capsys, "generate", "--split", "smoke-v2", "--out", out,
+                            "--shard-size", "0")
+    assert "argument --shard-size: expected a whole number >= 1, got '0'" in err
+    err = _refused_at_parse(capsys, "generate", "--split", "smoke-v2", "--out", out,
+                            "--limit", "-1")
+    assert "argument --limit: expected a whole number >= 1, got '-1'" in err
+    assert not out.exists()
+    err = _refused_at_parse(capsys, "sample", "--seed", "-1")
+    assert "argument --seed: expected a whole number >= 0, got '-1'" in err
+
+    from nsrmp_bench.detection.detections import read_detections
+    from nsrmp_bench.errors import InvalidArgument
+
+    with pytest.raises(InvalidArgument, match=r"is a predictions file .* not a detections "
+                       r"file; make detections of the part with `nsrmp-bench detect"):
+        read_detections(noop)
+
+
+def test_verify_of_a_damaged_shard_does_not_ask_for_the_whole_part(
+        tmp_path: Path, smoke_v2_test: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import shutil
+
+    part = tmp_path / "test"
+    shutil.copytree(smoke_v2_test, part)
+    shard = sorted(part.glob("*.h5"))[0]
+    raw = bytearray(shard.read_bytes())
+    middle = len(raw) // 2
+    raw[middle:middle + 4000] = bytes(b ^ 0xFF for b in raw[middle:middle + 4000])
+    shard.write_bytes(bytes(raw))
+    assert cli("verify", part) == 1
+    out = capsys.readouterr().out
+    assert "unreadable" in out and "no --limit" not in out
+    assert "delete those shards and rerun" in " ".join(out.split())
+
+
+# 9. Custom specs are checked whole, before anything starts -----------------------------
+
+@pytest.mark.parametrize(("change", "path", "shown"), [
+    (lambda s: s["parts"]["test"]["strata"][1].update(steps=[99]),
+     "parts.test.strata[1].steps[0]", "99; expected a number of steps in 1..7"),
+    (lambda s: s.update(image=[-1, 0]), "image[0]", "-1; 'image' is [width, height]"),
+    (lambda s: s["parts"]["test"]["strata"][0].update(phrasing=["poetic"]),
+     "parts.test.strata[0].phrasing[0]", "'poetic'; expected one of"),
+    (lambda s: s["held_out_pairs"].append(["cube", "purple"]),
+     "held_out_pairs[5]", "['cube', 'purple'] is not a [shape, colour]"),
+])
+def test_a_bad_spec_value_is_named_by_its_json_path(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], change: Any, path: str,
+        shown: str) -> None:
+    from importlib import resources
+
+    spec = json.loads(resources.files("nsrmp_bench.splits").joinpath("smoke-v2.json")
+                      .read_text("utf-8"))
+    spec["id"] = "mine-v1"
+    change(spec)
+    file = tmp_path / "mine-v1.json"
+    file.write_text(json.dumps(spec))
+    for argv in (("info", "--spec", file),
+                 ("generate", "--spec", file, "--out", tmp_path / "out", "--workers", "1")):
+        assert cli(*argv) == 2
+        err = capsys.readouterr().err
+        assert f"{file} {path}: {shown}" in err
+    assert not (tmp_path / "out").exists()
