@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.storage.atomic import output_file
 
 __all__ = ["add_arguments", "run"]
@@ -43,6 +44,6 @@ def run(args: argparse.Namespace) -> int:
     det_id, out, count, seconds = detect_part(args.detector, args.data, args.out,
                                               args.checkpoint)
     if not args.quiet:
-        print(f"{det_id}: wrote {out} ({count} episodes in {seconds:.1f} s, "
+        print(f"{det_id}: wrote {out} ({counted(count, 'episode')} in {seconds:.1f} s, "
               f"{count / max(seconds, 1e-9):.1f} images/s including reading)")
     return 0

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.release import MIRROR_ENV, download
 from nsrmp_bench.storage.atomic import output_dir
 
@@ -35,5 +36,5 @@ def run(args: argparse.Namespace) -> int:
     files = download(args.split, args.out, base_url=args.base_url,
                      trust_mirror_registry=args.trust_mirror_registry,
                      progress=not args.quiet)
-    print(f"{args.split}: {len(files)} files verified in {args.out}")
+    print(f"{args.split}: {counted(len(files), 'file')} verified in {args.out}")
     return 0

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 
 from nsrmp_bench.cli.numbers import positive_int
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.storage.atomic import output_file
 
 
@@ -29,7 +30,8 @@ def run(args: argparse.Namespace) -> int:
                           chunk_size=args.chunk_size)
     rate = summary.episodes / summary.seconds if summary.seconds > 0 else float("inf")
     print(
-        f"wrote {summary.path}: {summary.episodes} episodes, {summary.messages} messages, "
+        f"wrote {summary.path}: {counted(summary.episodes, 'episode')}, "
+        f"{counted(summary.messages, 'message')}, "
         f"{summary.bytes / 1e6:.2f} MB in {summary.seconds:.2f} s ({rate:.1f} episodes/s)"
     )
     return 0

@@ -30,6 +30,7 @@ from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_arg
 from nsrmp_bench.cli.numbers import positive_int
 from nsrmp_bench.cli.progress import episode_progress
 from nsrmp_bench.official_manifests import official_manifest
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.split_specs import load_split_file, resolve_split
 from nsrmp_bench.storage.atomic import output_dir
 from nsrmp_bench.verify import compare_with_committed
@@ -88,7 +89,7 @@ def _generate(gen: Any, spec: Any, part: str, engine: Any, args: argparse.Namesp
     rate = stats.episodes / wall if stats.episodes else 0.0
     rejected = sum(stats.reasons.values())
     console.print(
-        f"{spec.id}/{part}: {manifest.count} episodes in {out} "
+        f"{spec.id}/{part}: {counted(manifest.count, 'episode')} in {out} "
         f"({stats.episodes} generated in {wall:.1f} s, {rate:.1f} ep/s; "
         f"{rejected} attempts rejected{_reasons(stats)})"
     )

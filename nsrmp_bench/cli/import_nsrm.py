@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 
 from nsrmp_bench.cli.numbers import positive_int
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.storage.atomic import output_dir
 
 
@@ -37,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     m = report.manifest
     print(
         f"imported {report.imported} examples ({report.with_images} with images) into "
-        f"{args.out}: {len(m.shards)} shards, root hash {m.root_hash}"
+        f"{args.out}: {counted(len(m.shards), 'shard')}, root hash {m.root_hash}"
     )
     for name in report.skipped:
         print(f"skipped {name}: no demo.json (the original generator failed after rendering)")

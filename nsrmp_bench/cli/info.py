@@ -18,6 +18,7 @@ from rich.console import Console
 from rich.table import Table
 
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.split_specs import SPLIT_ID_RE, SplitSpec, load_split_file, resolve_split
 from nsrmp_bench.storage.manifest import MANIFEST_NAME
 
@@ -82,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     frame = category_frame(spec if spec is not None else target)
     console = Console()
     unofficial = "" if spec is None or spec.shipped else f" (unofficial split {spec.id})"
-    console.print(f"{target}: {len(frame)} instances{unofficial}")
+    console.print(f"{target}: {counted(len(frame), 'instance')}{unofficial}")
     for part, sub in frame.groupby("part", sort=True):
         table = Table(title=f"{part} ({len(sub)})")
         table.add_column("category")

@@ -18,6 +18,7 @@ import argparse
 from pathlib import Path
 
 from nsrmp_bench.leaderboard import build
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.results.publish import publish
 from nsrmp_bench.storage.atomic import output_dir
 
@@ -47,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         boards, written = publish(args.entries, args.data, args.out, args.site)
         site = args.site if args.site is not None else args.out / "site"
-        print(f"site: {site / 'index.html'} ({len(written)} files)")
+        print(f"site: {site / 'index.html'} ({counted(len(written), 'file')})")
     for split, rows in sorted(boards.items()):
         best = rows[0]
         print(f"{split}: {len(rows)} rows -> {args.out / (split.replace('/', '-') + '.md')} "

@@ -8,9 +8,11 @@ their verb runs, so ``--help`` and scoring never import PyBullet or torch.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 
 from nsrmp_bench import __version__
 from nsrmp_bench.engine.signals import EXIT_SIGTERM, Terminated, sigterm_as_interrupt
@@ -67,6 +69,25 @@ def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+LOG_WIDTH = 200
+"""Columns of rich's tables and lines when output goes to a file or a pipe (a log)."""
+
+
+@contextlib.contextmanager
+def _log_width() -> Iterator[None]:
+    """Output redirected to a log gets :data:`LOG_WIDTH` columns, not rich's 80, so that
+    tables stay whole (no ``prog…``, no wrapped intervals); ``COLUMNS`` set by the user wins.
+    rich reads ``COLUMNS`` when a console is made; it is restored afterwards."""
+    if "COLUMNS" in os.environ or (sys.stdout.isatty() and sys.stderr.isatty()):
+        yield
+        return
+    os.environ["COLUMNS"] = str(LOG_WIDTH)
+    try:
+        yield
+    finally:
+        os.environ.pop("COLUMNS", None)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status."""
     args_list = list(sys.argv[1:] if argv is None else argv)
@@ -78,7 +99,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     module = importlib.import_module(_module_name(args.verb))
     try:
-        with sigterm_as_interrupt():
+        with sigterm_as_interrupt(), _log_width():
             status: int = module.run(args)
     except NSRMPError as exc:
         print(f"nsrmp-bench {args.verb}: error: {exc}", file=sys.stderr)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.release import pack
 from nsrmp_bench.storage.atomic import output_dir
 
@@ -29,5 +30,5 @@ def run(args: argparse.Namespace) -> int:
     """Copy the shards and manifests, write the registry, print the totals."""
     entries = pack(args.data, args.out)
     total = sum(e.bytes for e in entries)
-    print(f"packed {len(entries)} files ({total / 1e6:.1f} MB) into {args.out}")
+    print(f"packed {counted(len(entries), 'file')} ({total / 1e6:.1f} MB) into {args.out}")
     return 0

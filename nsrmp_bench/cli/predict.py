@@ -24,6 +24,7 @@ import argparse
 import time
 from pathlib import Path
 
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.storage.atomic import output_file
 
 __all__ = ["add_arguments", "run"]
@@ -55,6 +56,6 @@ def run(args: argparse.Namespace) -> int:
     model_id, out, count = predict_part(args.model, args.data, args.out, args.checkpoint,
                                         args.boxes, name=args.name)
     if not args.quiet:
-        print(f"{model_id}: wrote {out} ({count} episodes in "
+        print(f"{model_id}: wrote {out} ({counted(count, 'episode')} in "
               f"{time.perf_counter() - t0:.1f} s)")
     return 0

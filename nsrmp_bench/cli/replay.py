@@ -31,6 +31,7 @@ from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_arg
 from nsrmp_bench.cli.numbers import positive_int
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.scoring.align import PredictionTable, align
 from nsrmp_bench.scoring.gold import GoldTable, load_episodes
 from nsrmp_bench.scoring.reader import read_submission_pending
@@ -134,8 +135,9 @@ def run(args: argparse.Namespace) -> int:
 
     with engine_from_args(args) as engine:
         if not args.quiet:
-            print(f"replaying {len(tasks)} instance(s) of {gold.split or table.header.split} "
-                  f"with the {args.profile} profile in {engine.describe()}", file=sys.stderr)
+            print(f"replaying {counted(len(tasks), 'instance')} of "
+                  f"{gold.split or table.header.split} with the {args.profile} profile in "
+                  f"{engine.describe()}", file=sys.stderr)
         outcomes = list(batch.replay_tasks(tasks, profile=args.profile, source=args.source,
                                            engine=engine, render_dir=args.render,
                                            progress=progress))
@@ -166,9 +168,10 @@ def run(args: argparse.Namespace) -> int:
         report = {"totals": totals, "instances": [o.summary for o in outcomes]}
         atomic_write_text(args.report, json.dumps(report, indent=1, allow_nan=False) + "\n")
     if not args.quiet:
-        print(f"wrote {args.out}: {len(predictions)} instance(s); {ok}/{len(steps)} moves "
-              f"succeeded, {refused} refused; in {len(failed)} instance(s) nothing could be "
-              "carried out (scene left as it was)",
+        print(f"wrote {args.out}: {counted(len(predictions), 'instance')}; "
+              f"{ok}/{counted(len(steps), 'move')} succeeded, {refused} refused; in "
+              f"{counted(len(failed), 'instance')} nothing could be carried out (scene left "
+              "as it was)",
               file=sys.stderr)
         for o in failed[:5]:
             print(f"  {o.episode_id}: {o.error}", file=sys.stderr)

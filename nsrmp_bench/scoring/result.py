@@ -15,6 +15,7 @@ from typing import Any, cast
 import pandas as pd
 
 from nsrmp_bench.errors import InvalidArgument, UnknownId
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.storage.atomic import atomic_write_text
 
 __all__ = ["BREAKDOWNS", "BREAKDOWN_SHOWN", "SHORT_BREAKDOWN", "ScoreResult", "json_ready"]
@@ -180,7 +181,7 @@ class ScoreResult:
         missing = self.counts.get("missing", 0)
         level = self.settings.get("level", 0.95)
         title = (
-            f"{self.scorer} · split {self.split or '?'} · {n} instances"
+            f"{self.scorer} · split {self.split or '?'} · {counted(n, 'instance')}"
             f" ({missing} missing) · {self.model or Path(self.source).name}"
         )
         t = Table(title=title, title_justify="left")
