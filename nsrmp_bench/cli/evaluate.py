@@ -35,8 +35,8 @@ __all__ = ["add_arguments", "render_table", "run"]
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("sources", nargs="+", metavar="MODEL_OR_PREDICTIONS",
-                        help="learned model ids (nsrm), baseline ids (oracle, noop, random) "
-                             "or predictions files")
+                        help="learned model ids (nsrm, nmn, dense), baseline ids (oracle, "
+                             "noop, random) or predictions files")
     parser.add_argument("--data-root", required=True, type=Path,
                         help="folder holding <split id>/<part>/ data (e.g. data/)")
     parser.add_argument("--out", required=True, type=output_dir,

@@ -37,7 +37,7 @@ VERBS: dict[str, str] = {
     "baseline": "write a non-learned baseline's predictions (oracle, noop, random)",
     "leaderboard": "rebuild the static leaderboards by scoring every committed entry",
     "replay": "carry out a predictions file with the simulated Panda; write the achieved boxes",
-    "train": "train a learned reference model (nsrm) on a split's train part",
+    "train": "train a learned model (nsrm, nmn, dense, detector, ...) on a split's train part",
     "predict": "write a learned model's predictions file for a split part",
     "reconstruct": "images of a predictions file's sub-goal states, with SSIM against gold",
     "detect": "write the detected initial objects of every episode of a split part",
@@ -47,6 +47,31 @@ VERBS: dict[str, str] = {
     "report": "the paper's Table I and II (markdown and LaTeX) from a results folder",
 }
 """Verb name -> one-line help. The module is ``nsrmp_bench.cli.<verb with _>``."""
+
+GROUPS: dict[str, tuple[str, ...]] = {
+    "data": ("generate", "download", "verify", "info", "show", "sample", "export-mcap",
+             "audit", "pack", "import-nsrm"),
+    "scoring": ("score", "check-submission", "compare", "baseline", "leaderboard", "replay"),
+    "learned models": ("predict", "train", "detect", "score-detections", "reconstruct"),
+    "results": ("evaluate", "plot", "report"),
+}
+"""The verbs as the top-level help lists them, by what they are for."""
+
+START_HERE = """start here (seconds; then the README):
+  nsrmp-bench generate --split smoke-v2 --out data/smoke
+  nsrmp-bench baseline noop --data data/smoke/test --out noop.jsonl
+  nsrmp-bench score noop.jsonl --data data/smoke/test"""
+
+
+def _grouped_verbs() -> str:
+    width = max(len(v) for v in VERBS) + 2
+    lines = [START_HERE, ""]
+    for group, verbs in GROUPS.items():
+        lines.append(f"{group}:")
+        lines.extend(f"  {verb:<{width}}{VERBS[verb]}" for verb in verbs)
+        lines.append("")
+    lines.append("`nsrmp-bench VERB --help` shows a verb's options and examples.")
+    return "\n".join(lines)
 
 
 def _module_name(verb: str) -> str:
@@ -59,11 +84,15 @@ def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
         prog="nsrmp-bench",
         description="Dataset and benchmark for language-guided robot manipulation "
         "with neuro-symbolic programs.",
+        epilog=_grouped_verbs(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"nsrmp-bench {__version__}")
-    sub = parser.add_subparsers(dest="verb", metavar="VERB")
+    sub = parser.add_subparsers(dest="verb", metavar="VERB",
+                                help="what to do; the verbs are listed below by group")
     for name, help_text in VERBS.items():
-        p = sub.add_parser(name, help=help_text, description=help_text)
+        # no help= here: the grouped list in the epilog replaces argparse's single list
+        p = sub.add_parser(name, description=help_text)
         if name == verb:
             importlib.import_module(_module_name(name)).add_arguments(p)
     return parser

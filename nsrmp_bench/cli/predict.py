@@ -32,7 +32,8 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
-    parser.add_argument("model", help="model name or id (nsrm, nsrm-v1)")
+    parser.add_argument("model", help="model name or id: nsrm, nmn, dense, dense5x (or with its "
+                        "version, nsrm-v1)")
     parser.add_argument("--data", required=True, type=Path,
                         help="one split part's data directory (e.g. data/paper/test)")
     parser.add_argument("--out", required=True, type=output_file, help="predictions file to write")

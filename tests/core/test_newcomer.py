@@ -396,3 +396,47 @@ def test_a_bad_spec_value_is_named_by_its_json_path(
         err = capsys.readouterr().err
         assert f"{file} {path}: {shown}" in err
     assert not (tmp_path / "out").exists()
+
+
+# 11. Output kept in a log stays whole --------------------------------------------------
+
+def test_tables_stay_whole_when_output_is_redirected(
+        tmp_path: Path, data: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("COLUMNS", raising=False)  # captured output is not a terminal
+    noop = tmp_path / "noop.jsonl"
+    assert cli("baseline", "noop", "--data", data, "--out", noop, "--split", SPLIT) == 0
+    capsys.readouterr()
+    assert cli("score", noop, "--data", data, "--split", SPLIT, "--n-boot", "20",
+               "--breakdown", "all") == 0
+    out = capsys.readouterr().out
+    assert "…" not in out
+    assert "program exact" in out and "predicate (per step)" in out
+    assert max(len(line) for line in out.splitlines()) > 80
+    import os
+
+    assert "COLUMNS" not in os.environ  # restored after the command
+
+
+# 12. Help and plurals ------------------------------------------------------------------
+
+def test_top_level_help_is_grouped_with_a_start_here(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from nsrmp_bench.cli.main import GROUPS, VERBS
+
+    assert sorted(v for verbs in GROUPS.values() for v in verbs) == sorted(VERBS)
+    assert cli() == 0
+    out = capsys.readouterr().out
+    assert "start here" in out and "nsrmp-bench generate --split smoke-v2" in out
+    for group in GROUPS:
+        assert f"\n{group}:\n" in out
+    for verb in ("predict", "evaluate"):
+        with pytest.raises(SystemExit):
+            cli(verb, "--help")
+        assert "(nsrm)" not in capsys.readouterr().out
+    assert "(nsrm)" not in VERBS["train"]
+
+    from nsrmp_bench.plurals import counted
+
+    assert (counted(1, "file"), counted(2, "file"), counted(0, "step")) == \
+        ("1 file", "2 files", "0 steps")
