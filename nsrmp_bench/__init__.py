@@ -12,6 +12,10 @@ if TYPE_CHECKING:  # type checkers see the real signature; at run time it is laz
 
 __version__ = "0.1.0"
 
+__all__ = ["__version__", "load_model", "open", "score"]
+"""The top-level names: ``open`` (read data), ``score`` (score predictions) and
+``load_model`` (a learned model; the torch extra), imported on first use."""
+
 if "gymnasium" in sys.modules:
     # ``import gymnasium; import nsrmp_bench`` registers nsrmp_bench/Tabletop-v0, so
     # ``gymnasium.register_envs(nsrmp_bench)`` works as for other environment packages.
@@ -38,3 +42,8 @@ def __getattr__(name: str) -> object:
         return score
     msg = f"module 'nsrmp_bench' has no attribute {name!r}"
     raise AttributeError(msg)
+
+
+def __dir__() -> list[str]:
+    """The lazy exports too (``dir(nsrmp_bench)``, tab completion)."""
+    return sorted({*__all__, *(n for n in globals() if n.startswith("__"))})

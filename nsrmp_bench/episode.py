@@ -17,6 +17,7 @@ from nsrmp_bench.canonical import content_hash
 from nsrmp_bench.dsl.program import GroundedStep, Program
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.geometry.camera import Camera
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.scene import Scene, State, state_from_list, state_to_list
 
 __all__ = [
@@ -268,3 +269,13 @@ class Episode:
     def id(self) -> str:
         """The episode id."""
         return self.symbolic.id
+
+    def __repr__(self) -> str:  # the arrays would print tens of kilobytes
+        r = self.rendering
+        shown = ("symbolic only" if r is None else
+                 counted(len(r.targets.boxes_amodal), "rendered state")
+                 + ("" if r.observations is not None else " (read without images)")
+                 + (", robot trajectory" if r.trajectory is not None else ""))
+        s = self.symbolic
+        return (f"Episode({s.id!r}, {counted(len(s.scene.objects), 'object')}, "
+                f"{counted(len(s.grounded), 'step')}, {s.instruction.text!r:.80}, {shown})")

@@ -22,6 +22,7 @@ from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.results.ranks import RANK_RULE, shared_ranks
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
+from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.split_root import find_part
 
 __all__ = ["COLUMNS", "Entry", "build", "load_entries", "render_markdown"]
@@ -163,10 +164,9 @@ def build(
     for split, rows in boards.items():
         rows.sort(key=lambda r: (-r["metrics"]["iou_m"][0], r["model"]))
         stem = split.replace("/", "-")
-        (out / f"{stem}.md").write_text(render_markdown(split, rows), "utf-8")
-        (out / f"{stem}.json").write_text(
-            canonical_json({"split": split, "rows": _nan_to_none(rows)}) + "\n", "utf-8"
-        )
+        atomic_write_text(out / f"{stem}.md", render_markdown(split, rows))
+        atomic_write_text(out / f"{stem}.json",
+                          canonical_json({"split": split, "rows": _nan_to_none(rows)}) + "\n")
     return boards
 
 

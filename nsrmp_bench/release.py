@@ -22,6 +22,7 @@ from nsrmp_bench.canonical import sha256_file
 from nsrmp_bench.errors import DownloadError, InvalidArgument
 from nsrmp_bench.official_manifests import official_manifest, official_manifest_text
 from nsrmp_bench.split_specs import list_splits, load_split
+from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.manifest import read_manifest
 from nsrmp_bench.storage.split_root import split_root_parts
 
@@ -73,9 +74,10 @@ def pack(data_dir: str | os.PathLike[str], out: str | os.PathLike[str]) -> list[
 
     packed_parts = sorted({e.path.split("/", 1)[0] for e in entries})
     write_croissant(Path(out) / split_id, split_id, packed_parts)
-    (Path(out) / split_id / REGISTRY_NAME).write_text(
+    atomic_write_text(
+        Path(out) / split_id / REGISTRY_NAME,
         f"# nsrmp-bench release registry for {split_id}: <part>/<file> <sha256> <bytes>\n"
-        + "\n".join(lines) + "\n", "utf-8"
+        + "\n".join(lines) + "\n",
     )
     return entries
 
@@ -145,7 +147,7 @@ def download(
         for part in load_split(split_id).parts:
             text = official_manifest_text(split_id, part)
             if text is not None:
-                (out_dir / part / "manifest.json").write_text(text, "utf-8")
+                atomic_write_text(out_dir / part / "manifest.json", text)
     return files
 
 

@@ -26,9 +26,16 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from nsrmp_bench.config import ALL_PAIRS, EpisodeConfig
+from nsrmp_bench.config import ALL_PAIRS, HELD_OUT_MODES, RELATIONAL_POLICIES, EpisodeConfig
 from nsrmp_bench.errors import InvalidArgument, UnknownId
-from nsrmp_bench.vocabulary import MAX_OBJECTS, MIN_OBJECTS
+from nsrmp_bench.vocabulary import (
+    COLOURS,
+    MAX_OBJECTS,
+    MAX_STEPS,
+    MIN_OBJECTS,
+    PHRASINGS,
+    SHAPES,
+)
 
 __all__ = [
     "OFFICIAL_SPLITS",
@@ -279,6 +286,33 @@ def _positive(value: Any, what: str, where: str) -> int:
     return value
 
 
+MIN_IMAGE, MAX_IMAGE = 32, 4096
+"""The image sizes a spec may ask for, in pixels per side."""
+
+
+def _check_stratum(s: Stratum, where: str) -> None:
+    """Every value of a stratum, named by its JSON path (``...strata[2].steps[0]``)."""
+    checks: tuple[tuple[str, tuple[Any, ...], Any, str], ...] = (
+        ("objects", s.objects, lambda n: MIN_OBJECTS <= n <= MAX_OBJECTS,
+         f"a number of objects in {MIN_OBJECTS}..{MAX_OBJECTS}"),
+        ("steps", s.steps, lambda n: 1 <= n <= MAX_STEPS, f"a number of steps in 1..{MAX_STEPS}"),
+        ("relational", s.relational, lambda v: v in RELATIONAL_POLICIES,
+         f"one of {list(RELATIONAL_POLICIES)}"),
+        ("phrasing", s.phrasing, lambda v: v in PHRASINGS, f"one of {list(PHRASINGS)}"),
+    )
+    for key, values, ok, expected in checks:
+        if not values:
+            msg = f"{where}.{key}: an empty list; expected at least one value, each {expected}"
+            raise InvalidArgument(msg)
+        for k, v in enumerate(values):
+            if not ok(v):
+                msg = f"{where}.{key}[{k}]: {v!r}; expected {expected}"
+                raise InvalidArgument(msg)
+    if s.held_out not in HELD_OUT_MODES:
+        msg = f"{where}.held_out: {s.held_out!r}; expected one of {list(HELD_OUT_MODES)}"
+        raise InvalidArgument(msg)
+
+
 def _parse(data: Mapping[str, Any], where: str, *, source: str | None) -> SplitSpec:
     """A :class:`SplitSpec` from a spec's JSON object, every problem named with ``where``."""
     missing = [k for k in ("id", "description", "image", "parts") if k not in data]
@@ -301,11 +335,7 @@ def _parse(data: Mapping[str, Any], where: str, *, source: str | None) -> SplitS
             Stratum.from_dict(s, f"{pw}.strata[{i}]") for i, s in enumerate(part["strata"])
         )
         for i, s in enumerate(strata):
-            bad = [n for n in s.objects if not MIN_OBJECTS <= n <= MAX_OBJECTS]
-            if bad or not s.steps or min(s.steps) < 1 or not s.objects:
-                msg = (f"{pw}.strata[{i}]: objects {list(s.objects)}, steps {list(s.steps)}; "
-                       f"objects must lie in {MIN_OBJECTS}..{MAX_OBJECTS} and steps be >= 1")
-                raise InvalidArgument(msg)
+            _check_stratum(s, f"{pw}.strata[{i}]")
         count = _positive(part["count"], "count", pw)
         if count == 0:
             msg = f"{pw}: count is 0; a part needs at least one instance"
@@ -318,6 +348,16 @@ def _parse(data: Mapping[str, Any], where: str, *, source: str | None) -> SplitS
         msg = (f"{where}: 'image' must be [width, height] and 'held_out_pairs' a list of "
                f"[shape, colour] ({exc})")
         raise InvalidArgument(msg) from exc
+    for k, (size, got) in enumerate(zip(image, data["image"], strict=False)):
+        if not MIN_IMAGE <= size <= MAX_IMAGE or size != got or len(data["image"]) != 2:
+            msg = (f"{where} image[{k}]: {got!r}; 'image' is [width, height] in pixels, two "
+                   f"integers in {MIN_IMAGE}..{MAX_IMAGE} (the official images are [320, 240])")
+            raise InvalidArgument(msg)
+    for k, pair in enumerate(held_out_pairs):
+        if pair not in ALL_PAIRS:
+            msg = (f"{where} held_out_pairs[{k}]: {list(pair)} is not a [shape, colour]; "
+                   f"shapes {list(SHAPES)}, colours {list(COLOURS)}")
+            raise InvalidArgument(msg)
     spec = SplitSpec(
         id=str(data["id"]),
         description=str(data["description"]),

@@ -275,10 +275,13 @@ def verify(
                                  files_ok=files_ok)
         )
     if cmp.missing:
+        fix = ("the data is incomplete; generate the whole part (no --limit) or finish "
+               "the download" if files_ok else
+               "they are in the damaged shards named above: delete those shards and rerun "
+               "the same `generate` (it makes only what is missing) or download them again")
         report.problems.append(
             f"{len(cmp.missing)} of the committed manifest's episodes are absent here "
-            f"(indices {cmp.missing[0]}..{cmp.missing[-1]}): the data is incomplete; "
-            "generate the whole part (no --limit) or finish the download"
+            f"(indices {cmp.missing[0]}..{cmp.missing[-1]}): {fix}"
         )
     return report
 

@@ -16,6 +16,7 @@ __all__ = [
     "COLOUR_RGBA",
     "EXTENTS",
     "MAX_OBJECTS",
+    "MAX_STEPS",
     "MIN_OBJECTS",
     "PHRASINGS",
     "PLACEMENT_MARGIN",
@@ -95,6 +96,9 @@ MIN_OBJECTS: Final = 3
 
 MAX_OBJECTS: Final = 15
 """Most objects in a scene (all in view, with the minimum spacing)."""
+
+MAX_STEPS: Final = 7
+"""Most steps in a program (the program sampler's and the templates' limit)."""
 
 SAMPLING_AREA: Final = Area("sampling", -0.30, 0.30, -0.20, 0.20)
 """Where initial object centres are sampled."""

@@ -23,7 +23,29 @@ from nsrmp_bench.storage.split_root import resolve_part
 if TYPE_CHECKING:
     from nsrmp_bench.reference_model.base import PredictionModel
 
-__all__ = ["predict_part", "with_detected_boxes"]
+__all__ = ["checkpoint_label", "predict_part", "with_detected_boxes"]
+
+
+def checkpoint_label(model_id: str, checkpoint: Path) -> str:
+    """The model name a predictions file made with ``checkpoint`` carries by default.
+
+    The shipped checkpoint (the same bytes) keeps ``model_id``; any other is named
+    ``MODEL_ID@RUN-HASH`` (the checkpoint's folder and the first 8 hex digits of its sha256,
+    e.g. ``nsrm-v1@nsrm-3f2a9c1e``), so that ``compare``, ``evaluate`` and the boards never
+    take a retrained model for the shipped one.
+    """
+    from nsrmp_bench.canonical import sha256_file
+    from nsrmp_bench.reference_model.checkpoints import shipped_checkpoint
+
+    digest = sha256_file(checkpoint)
+    try:
+        shipped = sha256_file(shipped_checkpoint(model_id))
+    except InvalidArgument:  # none shipped with this installation
+        shipped = ""
+    if digest == shipped:
+        return model_id
+    run = checkpoint.resolve().parent.name or "run"
+    return f"{model_id}@{run}-{digest[:8]}"
 
 
 def with_detected_boxes(items: list[dict[str, Any]], boxes: Path, split: str | None
@@ -59,12 +81,14 @@ def with_detected_boxes(items: list[dict[str, Any]], boxes: Path, split: str | N
 
 
 def predict_part(model_name: str, data: Path, out: Path,
-                 checkpoint: Path | None = None, boxes: Path | None = None
-                 ) -> tuple[str, Path, int]:
+                 checkpoint: Path | None = None, boxes: Path | None = None,
+                 name: str | None = None) -> tuple[str, Path, int]:
     """Predict every episode of the part ``data`` into ``out``.
 
-    Returns the model id (``MODEL+DETECTOR`` with ``boxes``), the file written and the
-    number of episodes.
+    Returns the model name written into the header (``name``, else the model id, or for a
+    checkpoint that is not the shipped one :func:`checkpoint_label`; ``+DETECTOR`` with
+    ``boxes``),
+    the file written and the number of episodes.
     """
     from nsrmp_bench.dataset import EpisodeDataset
     from nsrmp_bench.reference_model.predictions import write_model_predictions
@@ -83,6 +107,13 @@ def predict_part(model_name: str, data: Path, out: Path,
         raise InvalidArgument(msg)
     model_id = str(model.model_id)
     extra: dict[str, object] = {"checkpoint": model.checkpoint.name}
+    label = name or (checkpoint_label(model_id, Path(checkpoint)) if checkpoint is not None
+                     else model_id)
+    if label != model_id:
+        extra["base_model"] = model_id
+        if checkpoint is not None:
+            extra["checkpoint"] = str(checkpoint)
+        model_id = label
     predictions: Iterator[Any]
     if boxes is None:
         predictions = model.predict(items, first.camera)

@@ -9,7 +9,6 @@ contact state per instance). Results come back in task order whatever the worker
 from __future__ import annotations
 
 import contextlib
-import os
 import re
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -32,6 +31,7 @@ from nsrmp_bench.generators.robot.profiles import get_profile
 from nsrmp_bench.generators.world.world import World
 from nsrmp_bench.geometry.projection import episode_camera, episode_initial_state
 from nsrmp_bench.scoring.submission import Prediction
+from nsrmp_bench.storage.atomic import atomic_write_bytes
 
 __all__ = ["ReplayOutcome", "ReplayTask", "replay_tasks"]
 
@@ -76,9 +76,7 @@ def _write_png(path: Path, left: Any, right: Any) -> None:
     img = np.concatenate([left, right], axis=1)
     ok, buf = cv2.imencode(".png", np.ascontiguousarray(img[:, :, ::-1]))
     if ok:
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_bytes(bytes(buf))
-        os.replace(tmp, path)
+        atomic_write_bytes(path, bytes(buf))
 
 
 def _run_one(task: ReplayTask, profile: str, source: str,

@@ -16,8 +16,10 @@ import argparse
 from pathlib import Path
 
 from nsrmp_bench.baselines.registry import BASELINES, get_baseline, run_baseline
+from nsrmp_bench.cli.numbers import non_negative_int
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.scoring.gold import load_episodes
+from nsrmp_bench.storage.atomic import output_file
 
 __all__ = ["add_arguments", "run"]
 
@@ -29,8 +31,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data", required=True, type=Path,
                         help="the split's data (a data directory or shard, or a .jsonl of "
                              "symbolic episodes)")
-    parser.add_argument("--out", required=True, type=Path, help="predictions file to write")
-    parser.add_argument("--seed", type=int, default=0, help="seed (random baseline; default 0)")
+    parser.add_argument("--out", required=True, type=output_file, help="predictions file to write")
+    parser.add_argument("--seed", type=non_negative_int, default=0,
+                        help="seed (random baseline; default 0)")
     parser.add_argument("--split", default=None,
                         help="split id for the header, when the data does not record it")
 

@@ -5,8 +5,9 @@ Example::
     nsrmp-bench check-submission predictions.jsonl --split smoke-v2 --data data/smoke/test
 
 Without ``--data`` the file is checked on its own (header, JSON, fields, types, numbers,
-programs, duplicates); with it, also ids, object and step counts, and image bounds. Exit
-status 0 when valid; 2 with every problem listed by line otherwise.
+programs, duplicates) and, for an official split, its ids and box counts against the
+committed manifest; with it, also step counts and image bounds. Exit status 0 when valid;
+2 with every problem listed by line otherwise (a file without any prediction included).
 """
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nsrmp_bench.cli.numbers import non_negative_int
 from nsrmp_bench.cli.score import add_common
 from nsrmp_bench.scoring.compare import DEFAULT_N_PERM, compare
 
@@ -24,7 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("a", type=Path, help="predictions file A")
     parser.add_argument("b", type=Path, help="predictions file B")
     add_common(parser)
-    parser.add_argument("--n-perm", type=int, default=DEFAULT_N_PERM,
+    parser.add_argument("--n-perm", type=non_negative_int, default=DEFAULT_N_PERM,
                         help=f"random sign flips of the test (default {DEFAULT_N_PERM})")
 
 

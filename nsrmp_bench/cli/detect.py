@@ -17,6 +17,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nsrmp_bench.plurals import counted
+from nsrmp_bench.storage.atomic import output_file
+
 __all__ = ["add_arguments", "run"]
 
 
@@ -26,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument("--data", required=True, type=Path,
                         help="one split part's data directory (e.g. data/paper-v2/test)")
-    parser.add_argument("--out", required=True, type=Path, help="detections file (.jsonl)")
+    parser.add_argument("--out", required=True, type=output_file, help="detections file (.jsonl)")
     parser.add_argument("--detector", choices=DETECTORS, default=DEFAULT_DETECTOR,
                         help=f"which detector (default {DEFAULT_DETECTOR})")
     parser.add_argument("--checkpoint", type=Path, default=None,
@@ -49,6 +52,6 @@ def run(args: argparse.Namespace) -> int:
     det_id, out, count, seconds = detect_part(args.detector, args.data, args.out,
                                               args.checkpoint, learned)
     if not args.quiet:
-        print(f"{det_id}: wrote {out} ({count} episodes in {seconds:.1f} s, "
+        print(f"{det_id}: wrote {out} ({counted(count, 'episode')} in {seconds:.1f} s, "
               f"{count / max(seconds, 1e-9):.1f} images/s including reading)")
     return 0

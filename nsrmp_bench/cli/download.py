@@ -12,9 +12,10 @@ corrupted download is deleted and refused with a clear message.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.release import MIRROR_ENV, download
+from nsrmp_bench.storage.atomic import output_dir
 
 __all__ = ["add_arguments", "run"]
 
@@ -22,7 +23,7 @@ __all__ = ["add_arguments", "run"]
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("--split", required=True, help="split id, e.g. paper-v2")
-    parser.add_argument("--out", type=Path, required=True, help="where the parts go")
+    parser.add_argument("--out", type=output_dir, required=True, help="where the parts go")
     parser.add_argument("--base-url", default=None,
                         help=f"mirror base URL (default: ${MIRROR_ENV})")
     parser.add_argument("--trust-mirror-registry", action="store_true",
@@ -35,5 +36,5 @@ def run(args: argparse.Namespace) -> int:
     files = download(args.split, args.out, base_url=args.base_url,
                      trust_mirror_registry=args.trust_mirror_registry,
                      progress=not args.quiet)
-    print(f"{args.split}: {len(files)} files verified in {args.out}")
+    print(f"{args.split}: {counted(len(files), 'file')} verified in {args.out}")
     return 0

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 
+from nsrmp_bench.cli.numbers import positive_int
 from nsrmp_bench.engine import ENGINES, Engine, open_engine
 
 __all__ = ["add_engine_arguments", "engine_from_args"]
@@ -19,7 +20,7 @@ def add_engine_arguments(parser: argparse.ArgumentParser, *, workers: int) -> No
     parser.add_argument("--engine", choices=ENGINES, default="local",
                         help="where tasks run: local (this machine's process pool, the "
                              "default) or dask (a Dask cluster; needs the dask extra)")
-    parser.add_argument("--workers", type=int, default=workers,
+    parser.add_argument("--workers", type=positive_int, default=workers,
                         help=f"worker processes on this machine (default {workers}; 1 runs "
                              "in this process); with --engine dask, the LocalCluster's size")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
 from nsrmp_bench.results.evaluate import Runners, evaluate, resolve_source
 from nsrmp_bench.results.summary import Results
+from nsrmp_bench.storage.atomic import output_dir
 
 if TYPE_CHECKING:
     from nsrmp_bench.engine import Engine
@@ -38,11 +39,11 @@ __all__ = ["add_arguments", "render_table", "run"]
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("sources", nargs="+", metavar="MODEL_OR_PREDICTIONS",
-                        help="learned model ids (nsrm), baseline ids (oracle, noop, random) "
-                             "or predictions files")
+                        help="learned model ids (nsrm, nmn, dense), baseline ids (oracle, "
+                             "noop, random) or predictions files")
     parser.add_argument("--data-root", required=True, type=Path,
                         help="folder holding <split id>/<part>/ data (e.g. data/)")
-    parser.add_argument("--out", required=True, type=Path,
+    parser.add_argument("--out", required=True, type=output_dir,
                         help="results folder (summary.json, CSVs, predictions/)")
     parser.add_argument("--generate", action="store_true",
                         help="generate the official test parts missing under the root first")

@@ -7,14 +7,18 @@ from __future__ import annotations
 
 import argparse
 
+from nsrmp_bench.cli.numbers import positive_int
+from nsrmp_bench.plurals import counted
+from nsrmp_bench.storage.atomic import output_file
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("data", help="a shard file (*.h5) or a data directory with manifest.json")
-    parser.add_argument("--out", required=True, help="the MCAP file to write")
+    parser.add_argument("--out", required=True, type=output_file, help="the MCAP file to write")
     parser.add_argument("--episodes", nargs="+", metavar="ID",
                         help="export only these episode ids (default: all)")
-    parser.add_argument("--chunk-size", type=int, default=1 << 20,
+    parser.add_argument("--chunk-size", type=positive_int, default=1 << 20,
                         help="uncompressed MCAP chunk size in bytes (default 1 MiB)")
 
 
@@ -29,7 +33,8 @@ def run(args: argparse.Namespace) -> int:
                           chunk_size=args.chunk_size)
     rate = summary.episodes / summary.seconds if summary.seconds > 0 else float("inf")
     print(
-        f"wrote {summary.path}: {summary.episodes} episodes, {summary.messages} messages, "
+        f"wrote {summary.path}: {counted(summary.episodes, 'episode')}, "
+        f"{counted(summary.messages, 'message')}, "
         f"{summary.bytes / 1e6:.2f} MB in {summary.seconds:.2f} s ({rate:.1f} episodes/s)"
     )
     return 0

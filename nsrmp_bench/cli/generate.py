@@ -27,9 +27,12 @@ from typing import Any
 from rich.console import Console
 
 from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
+from nsrmp_bench.cli.numbers import positive_int
 from nsrmp_bench.cli.progress import episode_progress
 from nsrmp_bench.official_manifests import official_manifest
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.split_specs import load_split_file, resolve_split
+from nsrmp_bench.storage.atomic import output_dir
 from nsrmp_bench.verify import compare_with_committed
 
 __all__ = ["add_arguments", "run"]
@@ -41,13 +44,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     which.add_argument("--split", help="split id, e.g. paper-v2 (or a spec file's path)")
     which.add_argument("--spec", type=Path, metavar="PATH",
                        help="a custom split spec file (JSON, the form of splits/paper-v2.json)")
-    parser.add_argument("--out", required=True, type=Path, help="output directory")
+    parser.add_argument("--out", required=True, type=output_dir, help="output directory")
     parser.add_argument("--part", action="append", default=None,
                         help="only this part (repeatable); default: every part")
     add_engine_arguments(parser, workers=2)
-    parser.add_argument("--shard-size", type=int, default=100,
+    parser.add_argument("--shard-size", type=positive_int, default=100,
                         help="instances per shard (default 100)")
-    parser.add_argument("--limit", type=int, default=None,
+    parser.add_argument("--limit", type=positive_int, default=None,
                         help="only the first N instances of each part (not the official split)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -89,7 +92,7 @@ def _generate(gen: Any, spec: Any, part: str, engine: Any, args: argparse.Namesp
     rate = stats.episodes / wall if stats.episodes else 0.0
     rejected = sum(stats.reasons.values())
     console.print(
-        f"{spec.id}/{part}: {manifest.count} episodes in {out} "
+        f"{spec.id}/{part}: {counted(manifest.count, 'episode')} in {out} "
         f"({stats.episodes} generated in {wall:.1f} s, {rate:.1f} ep/s; "
         f"{rejected} attempts rejected{_reasons(stats)})"
     )

@@ -9,14 +9,18 @@ from __future__ import annotations
 
 import argparse
 
+from nsrmp_bench.cli.numbers import positive_int
+from nsrmp_bench.plurals import counted
+from nsrmp_bench.storage.atomic import output_dir
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("src", metavar="DIR", help="folder of the original release (searched "
                         "recursively for demo.json)")
-    parser.add_argument("--out", required=True, help="output data directory")
+    parser.add_argument("--out", required=True, type=output_dir, help="output data directory")
     parser.add_argument("--split", default="nsrm-original", help="split name to record")
-    parser.add_argument("--shard-size", type=int, default=1000, help="episodes per shard")
+    parser.add_argument("--shard-size", type=positive_int, default=1000, help="episodes per shard")
     parser.add_argument("--camera", default="auto",
                         choices=["auto", "small_table_view", "big_table_view_2"],
                         help="camera preset the images were rendered with (default: auto, "
@@ -34,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     m = report.manifest
     print(
         f"imported {report.imported} examples ({report.with_images} with images) into "
-        f"{args.out}: {len(m.shards)} shards, root hash {m.root_hash}"
+        f"{args.out}: {counted(len(m.shards), 'shard')}, root hash {m.root_hash}"
     )
     for name in report.skipped:
         print(f"skipped {name}: no demo.json (the original generator failed after rendering)")

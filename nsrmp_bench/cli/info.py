@@ -18,7 +18,9 @@ from rich.console import Console
 from rich.table import Table
 
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.split_specs import SPLIT_ID_RE, SplitSpec, load_split_file, resolve_split
+from nsrmp_bench.storage.manifest import MANIFEST_NAME
 
 __all__ = ["add_arguments", "category_frame", "run"]
 
@@ -74,12 +76,14 @@ def run(args: argparse.Namespace) -> int:
         raise InvalidArgument(msg)
     target = str(args.spec) if args.spec is not None else args.target
     spec = None
+    if args.spec is None and Path(target).name == MANIFEST_NAME and Path(target).is_file():
+        target = str(Path(target).parent)  # a part's manifest: count that part's data
     if args.spec is not None or (target.endswith(".json") and Path(target).is_file()):
         spec = load_split_file(target)
     frame = category_frame(spec if spec is not None else target)
     console = Console()
     unofficial = "" if spec is None or spec.shipped else f" (unofficial split {spec.id})"
-    console.print(f"{target}: {len(frame)} instances{unofficial}")
+    console.print(f"{target}: {counted(len(frame), 'instance')}{unofficial}")
     for part, sub in frame.groupby("part", sort=True):
         table = Table(title=f"{part} ({len(sub)})")
         table.add_column("category")

@@ -24,7 +24,9 @@ from pathlib import Path
 
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.leaderboard import build
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.results.publish import publish, rebuild_site
+from nsrmp_bench.storage.atomic import output_dir
 
 __all__ = ["add_arguments", "run"]
 
@@ -38,9 +40,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "unless --site-only)")
     parser.add_argument("--entries", type=Path, default=_REPO_BOARDS / "entries",
                         help="directory of entry files (default: the repository's)")
-    parser.add_argument("--out", type=Path, default=_REPO_BOARDS,
+    parser.add_argument("--out", type=output_dir, default=_REPO_BOARDS,
                         help="where the boards are written (default: the repository's)")
-    parser.add_argument("--site", type=Path, default=None,
+    parser.add_argument("--site", type=output_dir, default=None,
                         help="where the static site is written (default: OUT/site)")
     parser.add_argument("--no-site", action="store_true",
                         help="write the boards only (no site, no figures, no matplotlib)")
@@ -54,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     site = args.site if args.site is not None else args.out / "site"
     if args.site_only:
         written = rebuild_site(args.entries, args.out, site)
-        print(f"site: {site / 'index.html'} ({len(written)} files)")
+        print(f"site: {site / 'index.html'} ({counted(len(written), 'file')})")
         return 0
     if args.data is None:
         msg = ("--data ROOT is required to score the entries (or pass --site-only to redraw "
@@ -64,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
         boards = build(args.entries, args.data, args.out)
     else:
         boards, written = publish(args.entries, args.data, args.out, args.site)
-        print(f"site: {site / 'index.html'} ({len(written)} files)")
+        print(f"site: {site / 'index.html'} ({counted(len(written), 'file')})")
     for split, rows in sorted(boards.items()):
         best = rows[0]
         print(f"{split}: {len(rows)} rows -> {args.out / (split.replace('/', '-') + '.md')} "

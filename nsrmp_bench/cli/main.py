@@ -8,12 +8,15 @@ their verb runs, so ``--help`` and scoring never import PyBullet or torch.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 
 from nsrmp_bench import __version__
 from nsrmp_bench._optional import missing_extra
+from nsrmp_bench.engine.signals import EXIT_SIGTERM, Terminated, sigterm_as_interrupt
 from nsrmp_bench.errors import NSRMPError
 
 __all__ = ["VERBS", "main"]
@@ -38,7 +41,7 @@ VERBS: dict[str, str] = {
     "export-hf": "export a split as Hugging Face datasets Parquet shards with a dataset card",
     "export-lerobot": "export a split in the LeRobot v3.0 dataset layout",
     "replay": "carry out a predictions file with the simulated Panda; write the achieved boxes",
-    "train": "train a learned reference model (nsrm) on a split's train part",
+    "train": "train a learned model (nsrm, nmn, dense, detector, ...) on a split's train part",
     "predict": "write a learned model's predictions file for a split part",
     "reconstruct": "images of a predictions file's sub-goal states, with SSIM against gold",
     "detect": "write the detected initial objects of every episode of a split part",
@@ -48,6 +51,31 @@ VERBS: dict[str, str] = {
     "report": "the paper's Table I and II (markdown and LaTeX) from a results folder",
 }
 """Verb name -> one-line help. The module is ``nsrmp_bench.cli.<verb with _>``."""
+
+GROUPS: dict[str, tuple[str, ...]] = {
+    "data": ("generate", "download", "verify", "info", "show", "sample", "export-mcap",
+             "audit", "pack", "import-nsrm"),
+    "scoring": ("score", "check-submission", "compare", "baseline", "leaderboard", "replay"),
+    "learned models": ("predict", "train", "detect", "score-detections", "reconstruct"),
+    "results": ("evaluate", "plot", "report"),
+}
+"""The verbs as the top-level help lists them, by what they are for."""
+
+START_HERE = """start here (seconds; then the README):
+  nsrmp-bench generate --split smoke-v2 --out data/smoke
+  nsrmp-bench baseline noop --data data/smoke/test --out noop.jsonl
+  nsrmp-bench score noop.jsonl --data data/smoke/test"""
+
+
+def _grouped_verbs() -> str:
+    width = max(len(v) for v in VERBS) + 2
+    lines = [START_HERE, ""]
+    for group, verbs in GROUPS.items():
+        lines.append(f"{group}:")
+        lines.extend(f"  {verb:<{width}}{VERBS[verb]}" for verb in verbs)
+        lines.append("")
+    lines.append("`nsrmp-bench VERB --help` shows a verb's options and examples.")
+    return "\n".join(lines)
 
 
 def _module_name(verb: str) -> str:
@@ -60,11 +88,15 @@ def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
         prog="nsrmp-bench",
         description="Dataset and benchmark for language-guided robot manipulation "
         "with neuro-symbolic programs.",
+        epilog=_grouped_verbs(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"nsrmp-bench {__version__}")
-    sub = parser.add_subparsers(dest="verb", metavar="VERB")
+    sub = parser.add_subparsers(dest="verb", metavar="VERB",
+                                help="what to do; the verbs are listed below by group")
     for name, help_text in VERBS.items():
-        p = sub.add_parser(name, help=help_text, description=help_text)
+        # no help= here: the grouped list in the epilog replaces argparse's single list
+        p = sub.add_parser(name, description=help_text)
         if name == verb:
             importlib.import_module(_module_name(name)).add_arguments(p)
     return parser
@@ -78,6 +110,25 @@ def _missing(verb: str, exc: ImportError) -> int:
         raise exc
     print(f"nsrmp-bench {verb}: error: {extra}", file=sys.stderr)
     return 2
+
+
+LOG_WIDTH = 200
+"""Columns of rich's tables and lines when output goes to a file or a pipe (a log)."""
+
+
+@contextlib.contextmanager
+def _log_width() -> Iterator[None]:
+    """Output redirected to a log gets :data:`LOG_WIDTH` columns, not rich's 80, so that
+    tables stay whole (no ``prog…``, no wrapped intervals); ``COLUMNS`` set by the user wins.
+    rich reads ``COLUMNS`` when a console is made; it is restored afterwards."""
+    if "COLUMNS" in os.environ or (sys.stdout.isatty() and sys.stderr.isatty()):
+        yield
+        return
+    os.environ["COLUMNS"] = str(LOG_WIDTH)
+    try:
+        yield
+    finally:
+        os.environ.pop("COLUMNS", None)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -94,15 +145,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     try:
         module = importlib.import_module(_module_name(args.verb))
-        status: int = module.run(args)
+        with sigterm_as_interrupt(), _log_width():
+            status: int = module.run(args)
     except NSRMPError as exc:
         print(f"nsrmp-bench {args.verb}: error: {exc}", file=sys.stderr)
         return 2
     except ImportError as exc:
         return _missing(args.verb, exc)
-    except KeyboardInterrupt:
-        print(f"nsrmp-bench {args.verb}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        by, status = (("SIGTERM", EXIT_SIGTERM) if isinstance(exc, Terminated)
+                      else ("Ctrl-C", 130))
+        print(f"nsrmp-bench {args.verb}: stopped by {by}; its workers are stopped and no "
+              "file that looks complete is half-written; run the same command again (generate "
+              "resumes where it stopped)", file=sys.stderr)
+        return status
     return status
 
 

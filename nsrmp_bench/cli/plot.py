@@ -19,6 +19,7 @@ from pathlib import Path
 
 from nsrmp_bench.results.figures import draw_figures
 from nsrmp_bench.results.summary import Results
+from nsrmp_bench.storage.atomic import output_dir
 
 __all__ = ["add_arguments", "run"]
 
@@ -27,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("results", type=Path,
                         help="results folder (its summary.json), as evaluate wrote it")
-    parser.add_argument("--out", required=True, type=Path, help="folder for the figures")
+    parser.add_argument("--out", required=True, type=output_dir, help="folder for the figures")
 
 
 def run(args: argparse.Namespace) -> int:

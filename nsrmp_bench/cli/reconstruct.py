@@ -15,6 +15,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nsrmp_bench.storage.atomic import output_dir
+
 __all__ = ["add_arguments", "run"]
 
 
@@ -23,7 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("predictions", type=Path, help="predictions file with step_boxes")
     parser.add_argument("--data", required=True, type=Path,
                         help="the split's data (a part's directory, or the split root)")
-    parser.add_argument("--out", required=True, type=Path, help="directory to write")
+    parser.add_argument("--out", required=True, type=output_dir, help="directory to write")
     parser.add_argument("--renderer", choices=("network", "sim"), default="network",
                         help="network (reconstruction-v1, default) or sim (PyBullet)")
     parser.add_argument("--checkpoint", type=Path, default=None,

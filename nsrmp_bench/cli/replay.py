@@ -28,12 +28,15 @@ from typing import Any
 import numpy as np
 
 from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
+from nsrmp_bench.cli.numbers import positive_int
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.scoring.align import PredictionTable, align
 from nsrmp_bench.scoring.gold import GoldTable, load_episodes
 from nsrmp_bench.scoring.reader import read_submission_pending
 from nsrmp_bench.scoring.submission import Prediction, SubmissionHeader, write_submission
+from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.split_root import part_of_split
 from nsrmp_bench.vocabulary import ACTIONS
 
@@ -59,7 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--profile", default="fast", choices=_PROFILES,
                         help="robot motion profile (default fast)")
     add_engine_arguments(parser, workers=1)
-    parser.add_argument("--limit", type=int, default=None,
+    parser.add_argument("--limit", type=positive_int, default=None,
                         help="replay only the first N predicted instances (in data order)")
     parser.add_argument("--report", type=Path, default=None,
                         help="write per-instance replay details (moves, success, errors) as JSON")
@@ -135,8 +138,9 @@ def run(args: argparse.Namespace) -> int:
 
     with engine_from_args(args) as engine:
         if not args.quiet:
-            print(f"replaying {len(tasks)} instance(s) of {gold.split or table.header.split} "
-                  f"with the {args.profile} profile in {engine.describe()}", file=sys.stderr)
+            print(f"replaying {counted(len(tasks), 'instance')} of "
+                  f"{gold.split or table.header.split} with the {args.profile} profile in "
+                  f"{engine.describe()}", file=sys.stderr)
         outcomes = list(batch.replay_tasks(tasks, profile=args.profile, source=args.source,
                                            engine=engine, render_dir=args.render,
                                            progress=progress))
@@ -165,13 +169,12 @@ def run(args: argparse.Namespace) -> int:
     }
     if args.report is not None:
         report = {"totals": totals, "instances": [o.summary for o in outcomes]}
-        tmp = args.report.with_name(args.report.name + ".tmp")
-        tmp.write_text(json.dumps(report, indent=1, allow_nan=False) + "\n", "utf-8")
-        tmp.replace(args.report)
+        atomic_write_text(args.report, json.dumps(report, indent=1, allow_nan=False) + "\n")
     if not args.quiet:
-        print(f"wrote {args.out}: {len(predictions)} instance(s); {ok}/{len(steps)} moves "
-              f"succeeded, {refused} refused; in {len(failed)} instance(s) nothing could be "
-              "carried out (scene left as it was)",
+        print(f"wrote {args.out}: {counted(len(predictions), 'instance')}; "
+              f"{ok}/{counted(len(steps), 'move')} succeeded, {refused} refused; in "
+              f"{counted(len(failed), 'instance')} nothing could be carried out (scene left "
+              "as it was)",
               file=sys.stderr)
         for o in failed[:5]:
             print(f"  {o.episode_id}: {o.error}", file=sys.stderr)

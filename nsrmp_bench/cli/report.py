@@ -19,6 +19,7 @@ from pathlib import Path
 
 from nsrmp_bench.results.paper_tables import render_markdown, replace_block, write_report
 from nsrmp_bench.results.summary import Results
+from nsrmp_bench.storage.atomic import atomic_write_text, output_dir
 
 __all__ = ["add_arguments", "run"]
 
@@ -29,7 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="results folder (its summary.json), as evaluate wrote it")
     parser.add_argument("--paper", action="store_true",
                         help="put the paper's published rows beside ours")
-    parser.add_argument("--out", type=Path, default=None,
+    parser.add_argument("--out", type=output_dir, default=None,
                         help="folder for paper-tables.md/.tex (default: the results folder)")
     parser.add_argument("--readme", type=Path, default=None,
                         help="Markdown file whose marked tables block is replaced")
@@ -44,8 +45,8 @@ def run(args: argparse.Namespace) -> int:
     md, tex = write_report(results, out, paper=args.paper)
     if args.readme is not None:
         text = args.readme.read_text("utf-8")
-        args.readme.write_text(replace_block(text, render_markdown(results, paper=args.paper),
-                                             str(args.readme)), "utf-8")
+        atomic_write_text(args.readme, replace_block(
+            text, render_markdown(results, paper=args.paper), str(args.readme)))
     if not args.quiet:
         print(md.read_text("utf-8"))
         print(f"wrote {md} and {tex}" + (f"; updated {args.readme}" if args.readme else ""))

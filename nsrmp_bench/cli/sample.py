@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from nsrmp_bench.canonical import canonical_json
+from nsrmp_bench.cli.numbers import non_negative_int
 from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.vocabulary import PHRASINGS
 
@@ -22,8 +23,10 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
-    parser.add_argument("--seed", type=int, default=0, help="entropy of the seed (default 0)")
-    parser.add_argument("--index", type=int, default=0, help="instance index under the seed")
+    parser.add_argument("--seed", type=non_negative_int, default=0,
+                        help="entropy of the seed (default 0)")
+    parser.add_argument("--index", type=non_negative_int, default=0,
+                        help="instance index under the seed")
     parser.add_argument("--objects", type=int, default=5, help="number of objects, 3..15")
     parser.add_argument("--steps", type=int, default=1, help="number of steps, 1..7")
     parser.add_argument(

@@ -16,8 +16,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nsrmp_bench.cli.numbers import non_negative_int
+from nsrmp_bench.errors import SubmissionError
 from nsrmp_bench.scoring.result import BREAKDOWNS
 from nsrmp_bench.scoring.scorer import DEFAULT_N_BOOT, DEFAULT_SEED, score
+from nsrmp_bench.storage.atomic import atomic_path, output_file
 
 __all__ = ["add_arguments", "run"]
 
@@ -29,16 +32,16 @@ def add_common(parser: argparse.ArgumentParser) -> None:
                              "symbolic episodes)")
     parser.add_argument("--split", default=None,
                         help="split id, when the data does not record it")
-    parser.add_argument("--seed", type=int, default=DEFAULT_SEED,
+    parser.add_argument("--seed", type=non_negative_int, default=DEFAULT_SEED,
                         help=f"seed of the bootstrap (default {DEFAULT_SEED})")
-    parser.add_argument("--n-boot", type=int, default=DEFAULT_N_BOOT,
+    parser.add_argument("--n-boot", type=non_negative_int, default=DEFAULT_N_BOOT,
                         help=f"bootstrap resamples (default {DEFAULT_N_BOOT}; 0: no intervals)")
     parser.add_argument("--level", type=float, default=0.95,
                         help="confidence level of the intervals (default 0.95)")
     parser.add_argument("--allow-unknown-ids", action="store_true",
                         help="ignore (and count) lines whose id is not in the split instead "
                              "of refusing the file")
-    parser.add_argument("--json", type=Path, default=None, help="write the figures as JSON")
+    parser.add_argument("--json", type=output_file, default=None, help="write the figures as JSON")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
 
@@ -55,7 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-breakdown-intervals", action="store_true",
                         help="breakdown means and counts only, no intervals (much faster on "
                              "huge splits)")
-    parser.add_argument("--per-instance", type=Path, default=None,
+    parser.add_argument("--per-instance", type=output_file, default=None,
                         help="also write each instance's values (.csv, or .parquet)")
 
 
@@ -67,6 +70,11 @@ def run(args: argparse.Namespace) -> int:
         breakdown_intervals=not args.no_breakdown_intervals, split=args.split,
         unknown_ids="warn" if args.allow_unknown_ids else "error",
     )
+    if not result.counts.get("predicted", 0):
+        msg = (f"{args.predictions}: not one instance of {result.split or 'the data'} is "
+               "predicted (a header without predictions, or only unknown ids); it would score "
+               "zero: write one line per instance after the header")
+        raise SubmissionError(msg)
     if not args.quiet:
         result.render(breakdown=args.breakdown)
     if args.json is not None:
@@ -76,7 +84,9 @@ def run(args: argparse.Namespace) -> int:
             from nsrmp_bench._optional import require
 
             require("pyarrow")
-            result.per_instance.to_parquet(args.per_instance)
+            with atomic_path(args.per_instance) as tmp:
+                result.per_instance.to_parquet(tmp)
         else:
-            result.per_instance.to_csv(args.per_instance)
+            with atomic_path(args.per_instance) as tmp:
+                result.per_instance.to_csv(tmp)
     return 0

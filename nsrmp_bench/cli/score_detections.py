@@ -16,6 +16,8 @@ import argparse
 import json
 from pathlib import Path
 
+from nsrmp_bench.storage.atomic import atomic_write_text, output_file
+
 __all__ = ["add_arguments", "run"]
 
 
@@ -24,7 +26,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("detections", type=Path, help="detections file (.jsonl)")
     parser.add_argument("--data", required=True, type=Path,
                         help="the split part it was made on (e.g. data/paper-v2/test)")
-    parser.add_argument("--json", type=Path, default=None, help="also write the figures here")
+    parser.add_argument("--json", type=output_file, default=None,
+                        help="also write the figures here")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -44,6 +47,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"  missed {d['missed']}, merged {d['merged']}, episodes without a line "
           f"{d['missing_lines']}")
     if args.json is not None:
-        args.json.write_text(json.dumps({"detector": found.detector, "data": str(args.data),
-                                         **d}, indent=1) + "\n", "utf-8")
+        atomic_write_text(args.json, json.dumps(
+            {"detector": found.detector, "data": str(args.data), **d}, indent=1) + "\n")
     return 0

@@ -20,6 +20,7 @@ from rich.console import Console
 
 from nsrmp_bench.cli.engine_options import add_engine_arguments, engine_from_args
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.split_specs import load_split_file
 from nsrmp_bench.storage.split_root import split_root_parts
 from nsrmp_bench.verify import VerifyReport, verify
@@ -66,8 +67,8 @@ def run(args: argparse.Namespace) -> int:
 def _print(console: Console, d: Path, report: VerifyReport) -> None:
     verdict = "[green]OK[/green]" if report.ok else "[red]DIFFERS[/red]"
     console.print(
-        f"{report.split} ({d}): {verdict}: {report.shards} shards, "
-        f"{report.episodes} episodes rehashed, root {report.root_hash[:16]}"
+        f"{report.split} ({d}): {verdict}: {counted(report.shards, 'shard')}, "
+        f"{counted(report.episodes, 'episode')} rehashed, root {report.root_hash[:16]}"
     )
     if report.committed_root_hash is not None and report.ok:
         console.print("  matches the committed manifest" + (

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,6 +28,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nsrmp_bench.errors import InvalidArgument, SubmissionError
+from nsrmp_bench.scoring.version import SUBMISSION_FORMAT
+from nsrmp_bench.storage.atomic import atomic_open
 from nsrmp_bench.vocabulary import COLOURS, SHAPES
 
 __all__ = [
@@ -96,15 +97,10 @@ def write_detections(path: str | Path, split: str, detector: str,
         raise InvalidArgument(msg)
     header = {"format": DETECTIONS_FORMAT, "format_version": DETECTIONS_FORMAT_VERSION,
               "split": split, "detector": detector, **(extra or {})}
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.name + ".tmp")
-    with tmp.open("w", encoding="utf-8") as fh:
+    with atomic_open(out) as fh:
         fh.write(json.dumps({"header": header}) + "\n")
         for d in detections:
             fh.write(json.dumps(d.to_record(), separators=(",", ":")) + "\n")
-        fh.flush()
-        os.fsync(fh.fileno())
-    tmp.replace(out)
     return out
 
 
@@ -168,6 +164,11 @@ def read_detections(path: str | Path) -> DetectionFile:
                 continue
             if n == 1:
                 h = rec.get("header") if isinstance(rec, dict) else None
+                if isinstance(h, dict) and h.get("format") == SUBMISSION_FORMAT:
+                    msg = (f"{p} is a predictions file (format {SUBMISSION_FORMAT!r}), not a "
+                           "detections file; make detections of the part with `nsrmp-bench "
+                           "detect --data DATA --out detections.jsonl` and pass that")
+                    raise InvalidArgument(msg)
                 if not isinstance(h, dict) or h.get("format") != DETECTIONS_FORMAT:
                     problems.append(
                         f"line 1: expected the header {{\"header\": {{\"format\": "

@@ -7,13 +7,16 @@ Progress comes back through a manager queue that the driver drains while it wait
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 import queue as queue_module
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from multiprocessing.managers import SyncManager
 from typing import Any
 
 from nsrmp_bench.engine.base import Engine, run_task
 from nsrmp_bench.engine.progress import ProgressTally, TaskReport
+from nsrmp_bench.engine.signals import watch_parent
 from nsrmp_bench.errors import InvalidArgument
 
 __all__ = ["LocalPoolEngine"]
@@ -54,11 +57,14 @@ class LocalPoolEngine(Engine):
     def _run(self, fn: Callable[..., Any], tasks: Sequence[tuple[Any, ...]],
              tally: ProgressTally) -> Iterator[tuple[int, tuple[Any, int]]]:
         ctx = mp.get_context("spawn")
-        with ctx.Manager() as manager:
+        manager = SyncManager(ctx=ctx)
+        manager.start(watch_parent, (os.getpid(),))  # ends itself if this process dies
+        with manager:
             q = manager.Queue()
             sink = _QueueSink(q)
             with ProcessPoolExecutor(max_workers=min(self.workers, len(tasks)),
-                                     mp_context=ctx) as pool:
+                                     mp_context=ctx, initializer=watch_parent,
+                                     initargs=(os.getpid(),)) as pool:
                 futures: dict[Future[tuple[Any, int]], int] = {
                     pool.submit(run_task, fn, args, TaskReport(k, sink)): k
                     for k, args in enumerate(tasks)
@@ -71,6 +77,27 @@ class LocalPoolEngine(Engine):
                         _drain(q, tally)
                         for fut in finished:
                             yield futures[fut], fut.result()
+                except BaseException:
+                    _stop_workers(pool)  # Ctrl-C, SIGTERM, a task's error: stop at once
+                    raise
                 finally:
                     for fut in pending:
                         fut.cancel()
+
+
+def _stop_workers(pool: ProcessPoolExecutor) -> None:
+    """Cancel what has not started and end the workers now, not after their tasks.
+
+    The pool has no public handle on its processes; ``_processes`` (pid -> process) has
+    been there since Python 3.2.
+    """
+    procs = list((pool._processes or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in procs:
+        proc.join(timeout=5)
+        if proc.is_alive():
+            proc.kill()
+            proc.join()

@@ -37,7 +37,7 @@ from nsrmp_bench.scoring.reader import read_submission_pending
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
 from nsrmp_bench.split_specs import OFFICIAL_SPLITS, list_splits, load_split
-from nsrmp_bench.storage.split_root import find_part
+from nsrmp_bench.storage.split_root import find_part, split_root_parts
 
 __all__ = [
     "GeneratePart", "Job", "PredictPart", "Runners", "Source", "evaluate", "evaluate_job",
@@ -190,10 +190,10 @@ def evaluate(
                                                              run_with.generate)
                  for p, d in parts.items()}
     found = {p: d for p, d in parts.items() if d is not None}
-    (folder / "predictions").mkdir(parents=True, exist_ok=True)
-
     jobs = [job for source in resolved
             for job in _jobs(source, found, root, folder, run_with.predict)]
+    _refuse_twice_scored(jobs)
+    (folder / "predictions").mkdir(parents=True, exist_ok=True)
     runs: list[Run] = []
     tables: dict[str, list[pd.DataFrame]] = {}
     with contextlib.ExitStack() as stack:
@@ -209,6 +209,14 @@ def evaluate(
             tables.setdefault(job.split_part, []).append(table)
             tell(line)
     if not runs:
+        held = split_root_parts(root)
+        if held or (root / "manifest.json").is_file():
+            what = (f"a split root (the parts {', '.join(held)} of one split)" if held
+                    else "one part's data")
+            msg = (f"--data-root {root} is {what}; --data-root is the folder above the "
+                   "split roots, each named for its split (data/ holding data/smoke-v2/test/ "
+                   f"or data/smoke/test/): pass {root.parent}")
+            raise InvalidArgument(msg)
         msg = (f"no official test part under {root} (looked for "
                f"{', '.join(official_test_parts())} as ROOT/<split id>/<part>); generate "
                "them, or pass --generate")
@@ -257,6 +265,23 @@ def evaluate_job(job: Job, folder: str, *,
     if report is not None:
         report.advance()
     return run, long_table(job.model, result), line
+
+
+def _refuse_twice_scored(jobs: Sequence[Job]) -> None:
+    """Two runs of one model on one split part: refused before anything runs."""
+    seen: dict[tuple[str, str], Job] = {}
+    for job in jobs:
+        first = seen.setdefault((job.model, job.split_part), job)
+        if first is not job:
+            msg = (f"{_what(first)} and {_what(job)} are both model {job.model!r} on "
+                   f"{job.split_part}; a results folder holds one run per model and split "
+                   "part: drop one, or give one its own name (`nsrmp-bench predict "
+                   "--checkpoint ... --name NAME` writes it into the file's header)")
+            raise InvalidArgument(msg)
+
+
+def _what(job: Job) -> str:
+    return str(job.source.path) if job.source.path is not None else repr(job.source.name)
 
 
 def _jobs(source: Source, found: dict[str, Path], root: Path, folder: Path,

@@ -24,6 +24,7 @@ from typing import Any
 
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.results.summary import Results, Run
+from nsrmp_bench.storage.atomic import atomic_write_text
 
 __all__ = [
     "BLOCK_BEGIN",
@@ -260,6 +261,6 @@ def write_report(results: Results, out: str | os.PathLike[str], *,
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     md, tex = folder / "paper-tables.md", folder / "paper-tables.tex"
-    md.write_text(render_markdown(results, paper=paper), "utf-8")
-    tex.write_text(render_latex(results, paper=paper), "utf-8")
+    atomic_write_text(md, render_markdown(results, paper=paper))
+    atomic_write_text(tex, render_latex(results, paper=paper))
     return md, tex

@@ -49,6 +49,7 @@ from nsrmp_bench.results.protocols import PROTOCOLS, Protocol, is_reference, pro
 from nsrmp_bench.results.ranks import RANK_RULE, shared_ranks
 from nsrmp_bench.results.summary import Results
 from nsrmp_bench.scoring.metrics import METRICS
+from nsrmp_bench.storage.atomic import atomic_write_text
 
 __all__ = ["ASSETS", "RANK_RULE", "is_test_board", "read_boards", "shared_ranks",
            "write_site"]
@@ -396,20 +397,20 @@ def write_site(boards: Mapping[str, list[dict[str, Any]]], entries: Sequence[Ent
     (root / "cards").mkdir(parents=True, exist_ok=True)
     assets = resources.files("nsrmp_bench.results")
     for name in ASSETS:
-        (root / name).write_text(assets.joinpath(name).read_text("utf-8"), "utf-8")
+        atomic_write_text(root / name, assets.joinpath(name).read_text("utf-8"))
     splits = sorted(boards, key=lambda s: (is_test_board(s), s))
     ordered = {s: boards[s] for s in splits}
     site = _Site(root, entries, results, splits)
     pages = [root / "index.html"]
-    pages[0].write_text(_index_page(ordered, site), "utf-8")
+    atomic_write_text(pages[0], _index_page(ordered, site))
     for split in splits:
         page = root / f"{_stem(split)}.html"
-        page.write_text(_board_page(split, ordered[split], site), "utf-8")
+        atomic_write_text(page, _board_page(split, ordered[split], site))
         pages.append(page)
     on_boards = {row["entry"] for rows in ordered.values() for row in rows}
     for entry in entries:
         if entry.name in on_boards:
             page = root / "cards" / f"{entry.name}.html"
-            page.write_text(_card_page(entry, site), "utf-8")
+            atomic_write_text(page, _card_page(entry, site))
             pages.append(page)
     return pages

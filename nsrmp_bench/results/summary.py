@@ -23,6 +23,7 @@ from typing import Any
 from nsrmp_bench.canonical import canonical_json
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.scoring.result import ScoreResult
+from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.layout import check_schema_version
 
 __all__ = [
@@ -202,13 +203,8 @@ class Results:
 
     def write(self, folder: str | os.PathLike[str]) -> Path:
         """Write ``folder/summary.json`` (canonical JSON: the same runs, the same bytes)."""
-        out = Path(folder)
-        out.mkdir(parents=True, exist_ok=True)
-        path = out / SUMMARY_FILE
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(canonical_json(self.to_json()) + "\n", "utf-8")
-        tmp.replace(path)
-        return path
+        return atomic_write_text(Path(folder) / SUMMARY_FILE,
+                                 canonical_json(self.to_json()) + "\n")
 
     @classmethod
     def read(cls, where: str | os.PathLike[str]) -> Results:

@@ -1,9 +1,11 @@
 """Checking a predictions file without scoring it (``nsrmp-bench check-submission``).
 
 Without data, the file's own consistency is checked: header, JSON, fields, types, finite
-numbers, ordered boxes, programs, duplicate ids, and that it names the expected split.
-With the split's data, also that every id belongs to the split, object and step counts
-match, and boxes lie in the image; missing instances are counted.
+numbers, ordered boxes, programs, duplicate ids, and that it names the expected split; for
+an official split the committed manifest (shipped with the package) holds every instance's
+id and object count, so ids and box counts are checked and missing instances counted too.
+With the split's data, also step counts and that boxes lie in the image. A file that
+predicts no instance at all is refused (it would score zero).
 """
 
 from __future__ import annotations
@@ -11,12 +13,17 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from nsrmp_bench.errors import SubmissionError
+import numpy as np
+
+from nsrmp_bench.errors import NSRMPError, SubmissionError
+from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.scoring.align import align, split_matches
 from nsrmp_bench.scoring.gold import load_gold
 from nsrmp_bench.scoring.reader import read_submission_pending
 from nsrmp_bench.scoring.scorer import Data
-from nsrmp_bench.scoring.submission import SubmissionHeader
+from nsrmp_bench.scoring.submission import Submission, SubmissionHeader
+from nsrmp_bench.scoring.validate import Problems
+from nsrmp_bench.split_specs import load_split
 from nsrmp_bench.storage.split_root import part_of_split
 
 __all__ = ["CheckReport", "check_submission"]
@@ -32,6 +39,7 @@ class CheckReport:
     against_data: bool
     counts: dict[str, int] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
+    against_manifest: str = ""
 
     def summary(self) -> str:
         """One paragraph for people."""
@@ -40,12 +48,20 @@ class CheckReport:
             f"({self.header.scorer}, format {self.header.format_version}), {self.lines} "
             "prediction(s)"
         )
+        c = self.counts
+        if not self.against_data and self.against_manifest:
+            return (
+                f"{head}; {c.get('predicted', 0)} of {c.get('instances', 0)} instances "
+                f"predicted, {c.get('missing', 0)} missing (they score zero). Ids and object "
+                f"counts were checked against the committed manifest of "
+                f"{self.against_manifest}; pass --data with the split's data to check step "
+                "counts and image bounds too."
+            )
         if not self.against_data:
             return (
                 head + ". Ids, object counts and image bounds were not checked: pass --data "
                 "with the split's data to check them."
             )
-        c = self.counts
         text = (
             f"{head}; {c.get('predicted', 0)} of {c.get('instances', 0)} instances predicted, "
             f"{c.get('missing', 0)} missing (they score zero)."
@@ -65,14 +81,79 @@ def check_submission(
     if split is not None and not split_matches(split, sub.header.split):
         msg = (
             f"{sub.source}: the header says split {sub.header.split!r}, but you are checking it "
-            f"for split {split!r}; write {split!r} in the header if the predictions are for it"
+            f"for split {split!r}; "
+            + (f"write {split!r} in the header if the predictions are for it"
+               if _is_known_split(split) else
+               f"{split!r} is not a shipped split: check it for the one it was made on "
+               f"(--split {sub.header.split})")
         )
         if pending.count:
             msg += "\n" + pending.message()
         raise SubmissionError(msg)
+    if not len(sub) and not pending.count:
+        msg = (f"{sub.source}: holds a header but no prediction; every instance would score "
+               "zero: write one line per instance after the header")
+        raise SubmissionError(msg)
     if data is None:
+        known = _committed_instances(sub.header.split)
+        if known is None:
+            pending.raise_if_any()
+            return CheckReport(sub.source, sub.header, len(sub), False)
+        name, objects = known
+        counts = _check_with_manifest(sub, name, objects, unknown_ids, pending)
         pending.raise_if_any()
-        return CheckReport(sub.source, sub.header, len(sub), False)
+        return CheckReport(sub.source, sub.header, len(sub), False, counts,
+                           against_manifest=name)
     gold = load_gold(data, split=split, part=part_of_split(sub.header.split))
     table = align(sub, gold, unknown_ids=unknown_ids, pending=pending)
     return CheckReport(sub.source, sub.header, len(sub), True, table.counts, table.warnings)
+
+
+def _committed_instances(split: str) -> tuple[str, dict[str, int]] | None:
+    """``(split, id -> object count)`` from the committed manifests of an official split
+    (every part when ``split`` names none); None when there are none."""
+    split_id, _, part = split.partition("/")
+    try:
+        parts = [part] if part else list(load_split(split_id).parts)
+    except NSRMPError:  # not a shipped split: nothing committed
+        return None
+    objects: dict[str, int] = {}
+    for p in parts:
+        manifest = official_manifest(split_id, p)
+        if manifest is None:
+            return None
+        objects.update({str(e["id"]): int(e["objects"]) for e in manifest["episodes"]})
+    return split, objects
+
+
+def _check_with_manifest(sub: Submission, split: str, objects: dict[str, int],
+                         unknown_ids: str, problems: Problems) -> dict[str, int]:
+    """Ids and box counts against the committed manifest; returns the counts."""
+    detected = (sub.has_detections if sub.has_detections is not None
+                else np.zeros(len(sub), bool))
+    unknown = 0
+    predicted = set()
+    for r, eid in enumerate(sub.ids):
+        n_gold = objects.get(eid)
+        if n_gold is None:
+            unknown += 1
+            if unknown_ids == "error":
+                problems.add(sub.where(r), f"id {eid!r} is not an instance of {split}; remove "
+                             "the line (or check with unknown ids ignored: --allow-unknown-ids)")
+            continue
+        predicted.add(eid)
+        n = int(sub.n_objects[r])
+        if not detected[r] and n != n_gold:
+            problems.add(sub.where(r), f"'boxes' has {n} boxes but instance {eid!r} has "
+                         f"{n_gold} objects; give one box per object, in the episode's object "
+                         "order")
+    return {"instances": len(objects), "predicted": len(predicted),
+            "missing": len(objects) - len(predicted), "unknown_ids": unknown}
+
+
+def _is_known_split(split: str) -> bool:
+    try:
+        load_split(split.partition("/")[0])
+    except NSRMPError:
+        return False
+    return True

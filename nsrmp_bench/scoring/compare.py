@@ -35,6 +35,7 @@ from nsrmp_bench.scoring.scorer import (
     read_predictions,
 )
 from nsrmp_bench.scoring.version import SCORER_ID
+from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.split_root import part_of_split
 
 __all__ = ["DEFAULT_N_PERM", "Comparison", "compare"]
@@ -57,6 +58,12 @@ class Comparison:
     settings: dict[str, Any] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
 
+    def __repr__(self) -> str:  # the frames would print hundreds of lines; see render()
+        diff = float(self.table["diff"].to_dict().get("iou_m", float("nan")))
+        return (f"Comparison(split={self.split!r}, a={self.a!r}, b={self.b!r}, "
+                f"iou_m diff={diff:.4f}; .render() prints every difference, .table holds "
+                "them)")
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-able form (NaN as null)."""
         out: dict[str, Any] = json_ready({
@@ -72,9 +79,8 @@ class Comparison:
 
     def write_json(self, path: str | Path) -> Path:
         """Write :meth:`to_dict` as strict JSON."""
-        p = Path(path)
-        p.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n", "utf-8")
-        return p
+        return atomic_write_text(
+            path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
 
     def render(self, console: Any = None) -> None:
         """Print the differences as a rich table."""

@@ -373,4 +373,8 @@ def load_gold(
     if isinstance(data, str | Path):
         episodes, recorded = load_episodes(data, part=part)
         return GoldTable.from_episodes(episodes, split=recorded or split, source=str(data))
-    return GoldTable.from_episodes(data, split=split)
+    # An open collection (``nsrmp_bench.open``) knows its split and where it was read.
+    known, root = getattr(data, "split", None), getattr(data, "root", None)
+    return GoldTable.from_episodes(
+        data, split=known if isinstance(known, str) and known else split,
+        source=str(root) if root is not None else "")

@@ -15,6 +15,8 @@ from typing import Any, cast
 import pandas as pd
 
 from nsrmp_bench.errors import InvalidArgument, UnknownId
+from nsrmp_bench.plurals import counted
+from nsrmp_bench.storage.atomic import atomic_write_text
 
 __all__ = ["BREAKDOWNS", "BREAKDOWN_SHOWN", "SHORT_BREAKDOWN", "ScoreResult", "json_ready"]
 
@@ -90,6 +92,12 @@ class ScoreResult:
         """IoU-M, the headline figure."""
         return self.value("iou_m")
 
+    def __repr__(self) -> str:  # the frames would print hundreds of lines; see render()
+        n = self.counts.get("instances", len(self.per_instance))
+        return (f"ScoreResult(split={self.split!r}, model={self.model!r}, "
+                f"iou_m={self.headline:.4f}, n={n}, warnings={len(self.warnings)}; "
+                ".render() prints every figure, .summary holds them)")
+
     def value(self, metric: str) -> float:
         """One metric's value (NaN when not reported, e.g. success_3d without positions)."""
         if metric not in self.summary.index:
@@ -155,12 +163,8 @@ class ScoreResult:
 
     def write_json(self, path: str | Path, *, per_instance: bool = False) -> Path:
         """Write :meth:`to_dict` as strict JSON."""
-        p = Path(path)
-        p.write_text(
-            json.dumps(self.to_dict(per_instance=per_instance), indent=2, allow_nan=False) + "\n",
-            encoding="utf-8",
-        )
-        return p
+        return atomic_write_text(path, json.dumps(
+            self.to_dict(per_instance=per_instance), indent=2, allow_nan=False) + "\n")
 
     def render(self, console: Any = None, *, breakdown: str = "short") -> None:
         """Print the figures as rich tables: the headline table, IoU-M after each step, and
@@ -177,7 +181,7 @@ class ScoreResult:
         missing = self.counts.get("missing", 0)
         level = self.settings.get("level", 0.95)
         title = (
-            f"{self.scorer} · split {self.split or '?'} · {n} instances"
+            f"{self.scorer} · split {self.split or '?'} · {counted(n, 'instance')}"
             f" ({missing} missing) · {self.model or Path(self.source).name}"
         )
         t = Table(title=title, title_justify="left")

@@ -7,7 +7,7 @@ are needed.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -16,14 +16,15 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from nsrmp_bench.episode import Episode, SymbolicEpisode
+from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.scoring.align import PredictionTable, align
 from nsrmp_bench.scoring.bootstrap import bootstrap_intervals, resampling_method
 from nsrmp_bench.scoring.gold import GoldTable, load_gold
 from nsrmp_bench.scoring.metrics import METRICS, instance_scores, step_metric_name
 from nsrmp_bench.scoring.reader import read_submission_pending
 from nsrmp_bench.scoring.result import ScoreResult
-from nsrmp_bench.scoring.submission import Submission
-from nsrmp_bench.scoring.validate import Problems
+from nsrmp_bench.scoring.submission import Prediction, Submission, SubmissionHeader
+from nsrmp_bench.scoring.validate import Problems, parse_predictions
 from nsrmp_bench.scoring.version import SCORER_ID
 from nsrmp_bench.storage.split_root import part_of_split
 
@@ -43,7 +44,7 @@ DEFAULT_N_BOOT = 1000
 """Bootstrap resamples per interval."""
 
 Data = GoldTable | str | Path | Iterable[Episode | SymbolicEpisode]
-Predictions = Submission | str | Path
+Predictions = Submission | str | Path | Sequence[Prediction]
 
 
 def metric_columns(gold: GoldTable, frame: pd.DataFrame) -> list[str]:
@@ -54,11 +55,36 @@ def metric_columns(gold: GoldTable, frame: pd.DataFrame) -> list[str]:
     return cols
 
 
-def read_predictions(predictions: Predictions) -> tuple[Submission, Problems | None]:
-    """A parsed submission and the problems found reading it (None when given parsed)."""
+def read_predictions(predictions: Predictions, *, split: str | None = None
+                     ) -> tuple[Submission, Problems | None]:
+    """A parsed submission and the problems found reading it (None when given parsed).
+
+    ``predictions`` is a file path, a parsed :class:`Submission`, or a list of
+    :class:`Prediction` (checked like a file; ``split`` is its header's split).
+    """
     if isinstance(predictions, Submission):
         return predictions, None
-    return read_submission_pending(predictions)
+    if isinstance(predictions, str | Path):
+        return read_submission_pending(predictions)
+    if isinstance(predictions, Sequence):
+        wrong = next((i for i, p in enumerate(predictions) if not isinstance(p, Prediction)),
+                     None)
+        if wrong is not None:
+            msg = (f"predictions[{wrong}] is a {type(predictions[wrong]).__name__}, not a "
+                   "Prediction; pass nsrmp_bench.scoring.submission.Prediction objects, a "
+                   "predictions file's path, or a parsed Submission")
+            raise InvalidArgument(msg)
+        if not split:
+            msg = ("a list of predictions has no header to name its split; pass "
+                   "split='smoke-v2/test' (the split part they were made on), or score data "
+                   "that records its split (a data directory or nsrmp_bench.open(...))")
+            raise InvalidArgument(msg)
+        checked = [p for p in predictions if isinstance(p, Prediction)]
+        return parse_predictions(SubmissionHeader(split=split), checked,
+                                 source="<list of predictions>"), None
+    msg = (f"predictions must be a file path, a list of Prediction or a parsed Submission, "
+           f"got {type(predictions).__name__}")
+    raise InvalidArgument(msg)
 
 
 def prepare(
@@ -160,10 +186,15 @@ def score(
     unknown_ids: str = "error",
     split: str | None = None,
 ) -> ScoreResult:
-    """Score a predictions file (or parsed :class:`Submission`) against a split's data.
+    """Score predictions against a split's data.
 
-    ``data`` is a data file path, an iterable of episodes, or a built :class:`GoldTable`
-    (``split`` names it when it records no split id); a split root is read at the part
+    ``predictions`` is a predictions file's path, a list of
+    :class:`~nsrmp_bench.scoring.submission.Prediction` (checked exactly like a file; their
+    split is the data's, or ``split``), or a parsed :class:`Submission`
+    (:func:`~nsrmp_bench.scoring.validate.parse_predictions`). ``data`` is a data file
+    path, an open collection (``nsrmp_bench.open(path)``: it knows its split), an iterable
+    of episodes, or a built :class:`GoldTable` (``split`` names it when it records no
+    split id); a split root is read at the part
     the predictions' header names (``smoke-v2/test``). Intervals are percentile bootstrap
     intervals at ``level`` from ``n_boot`` resamples of a Generator seeded with ``seed``
     (0 resamples: no intervals). ``breakdown=False`` skips the per-category tables and
@@ -171,8 +202,12 @@ def score(
     ``unknown_ids="warn"`` ignores (and counts) lines for ids outside the split instead of
     refusing the file. Raises :class:`~nsrmp_bench.errors.SubmissionError` for a bad file.
     """
-    read = read_predictions(predictions)
-    gold = load_gold(data, split=split, part=part_of_split(read[0].header.split))
+    if isinstance(predictions, Sequence) and not isinstance(predictions, str):
+        gold = load_gold(data, split=split)  # the header's split comes from the data
+        read = read_predictions(predictions, split=gold.split or split)
+    else:
+        read = read_predictions(predictions)
+        gold = load_gold(data, split=split, part=part_of_split(read[0].header.split))
     table, frame, counts = prepare(read, gold, unknown_ids=unknown_ids)
     summary, per_step, per_category = summarise(
         gold, frame, seed=seed, n_boot=n_boot, level=level, breakdown=breakdown,

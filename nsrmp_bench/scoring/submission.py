@@ -22,7 +22,6 @@ line; :mod:`nsrmp_bench.scoring.validate` enforces it with messages that name th
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -35,6 +34,7 @@ from numpy.typing import NDArray
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.scoring.version import SCORER_ID, SUBMISSION_FORMAT, SUBMISSION_FORMAT_VERSION
+from nsrmp_bench.storage.atomic import atomic_open, atomic_path
 
 __all__ = [
     "PARQUET_COLUMNS",
@@ -189,18 +189,6 @@ class Submission:
         return f"{self.line_label} {int(self.lines[record])}"
 
 
-def _atomic_write(path: Path, write: Any) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    try:
-        write(tmp)
-        with tmp.open("rb") as fh:
-            os.fsync(fh.fileno())
-        tmp.replace(path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-
-
 def write_submission(
     path: str | Path, header: SubmissionHeader, predictions: Iterable[Prediction]
 ) -> Path:
@@ -212,20 +200,18 @@ def write_submission(
         pa = require("pyarrow")
         pq = require("pyarrow.parquet")
         table = _parquet_table(pa, header, [p.to_record() for p in predictions])
-        _atomic_write(out, lambda tmp: pq.write_table(table, tmp))
+        with atomic_path(out) as tmp:
+            pq.write_table(table, tmp)
         return out
     if out.suffix not in (".jsonl", ".json", ".ndjson"):
         msg = f"predictions file {str(out)!r}: use a .jsonl (JSON Lines) or .parquet suffix"
         raise InvalidArgument(msg)
 
-    def write_jsonl(tmp: Path) -> None:
-        with tmp.open("w", encoding="utf-8") as fh:
-            fh.write(json.dumps({"header": header.to_dict()}, allow_nan=False) + "\n")
-            for p in predictions:
-                fh.write(json.dumps(p.to_record(), allow_nan=False, separators=(",", ":")))
-                fh.write("\n")
-
-    _atomic_write(out, write_jsonl)
+    with atomic_open(out) as fh:
+        fh.write(json.dumps({"header": header.to_dict()}, allow_nan=False) + "\n")
+        for p in predictions:
+            fh.write(json.dumps(p.to_record(), allow_nan=False, separators=(",", ":")))
+            fh.write("\n")
     return out
 
 

@@ -42,9 +42,9 @@ from nsrmp_bench import __version__
 from nsrmp_bench._optional import require
 from nsrmp_bench.episode import SCHEMA_VERSION, Episode
 from nsrmp_bench.geometry.camera import Camera
+from nsrmp_bench.storage.atomic import atomic_path, check_output_file
 from nsrmp_bench.storage.reader import EpisodeCollection
 from nsrmp_bench.storage.reader import open as open_collection
-from nsrmp_bench.storage.records import fsync_dir
 from nsrmp_bench.vocabulary import COLOUR_RGBA, EXTENTS, vocabulary_dict
 
 __all__ = ["EPISODE_SCHEMA_NAME", "ExportSummary", "encode_png", "episode_record",
@@ -364,41 +364,31 @@ def export_mcap(
     coll = source if isinstance(source, EpisodeCollection) else open_collection(source)
     positions = ([coll.position(i) for i in episodes] if episodes is not None
                  else list(range(len(coll))))
-    out_path = Path(out)
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out_path.with_name(out_path.name + ".tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            w = mcap_writer.Writer(fh, chunk_size=chunk_size,
-                                   compression=mcap_writer.CompressionType.ZSTD)
-            w.start(profile="", library=f"nsrmp-bench/{__version__}")
-            ex = _Exporter(w)
-            start = 0
-            for pos in positions:
-                ep = coll.episode(pos, images=True)
-                start += ex.episode(ep, coll.split, start)
-            vocab = json.dumps(vocabulary_dict(), sort_keys=True).encode("utf-8")
-            w.add_metadata("dataset", {
-                "schema_version": SCHEMA_VERSION,
-                "split": coll.split,
-                "source": str(coll.root),
-                "episodes": str(len(positions)),
-                "package_version": __version__,
-                "generator": coll.manifest.generator if coll.manifest is not None else "",
-                "root_hash": coll.manifest.root_hash if coll.manifest is not None else "",
-            })
-            schema_bytes = json.dumps(load_episode_schema(), indent=1).encode("utf-8")
-            w.add_attachment(create_time=0, log_time=0, name="nsrmp_bench.Episode.schema.json",
-                             media_type="application/schema+json", data=schema_bytes)
-            w.add_attachment(create_time=0, log_time=0, name="vocabulary.json",
-                             media_type="application/json", data=vocab)
-            w.finish()
-            fh.flush()
-            os.fsync(fh.fileno())
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    os.replace(tmp, out_path)
-    fsync_dir(out_path.parent)
+    out_path = check_output_file(out)
+    with atomic_path(out_path) as tmp, open(tmp, "wb") as fh:
+        w = mcap_writer.Writer(fh, chunk_size=chunk_size,
+                               compression=mcap_writer.CompressionType.ZSTD)
+        w.start(profile="", library=f"nsrmp-bench/{__version__}")
+        ex = _Exporter(w)
+        start = 0
+        for pos in positions:
+            ep = coll.episode(pos, images=True)
+            start += ex.episode(ep, coll.split, start)
+        vocab = json.dumps(vocabulary_dict(), sort_keys=True).encode("utf-8")
+        w.add_metadata("dataset", {
+            "schema_version": SCHEMA_VERSION,
+            "split": coll.split,
+            "source": str(coll.root),
+            "episodes": str(len(positions)),
+            "package_version": __version__,
+            "generator": coll.manifest.generator if coll.manifest is not None else "",
+            "root_hash": coll.manifest.root_hash if coll.manifest is not None else "",
+        })
+        schema_bytes = json.dumps(load_episode_schema(), indent=1).encode("utf-8")
+        w.add_attachment(create_time=0, log_time=0, name="nsrmp_bench.Episode.schema.json",
+                         media_type="application/schema+json", data=schema_bytes)
+        w.add_attachment(create_time=0, log_time=0, name="vocabulary.json",
+                         media_type="application/json", data=vocab)
+        w.finish()
     return ExportSummary(out_path, len(positions), ex.messages, out_path.stat().st_size,
                          time.perf_counter() - began)

@@ -8,14 +8,14 @@ assembled from the records.
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from nsrmp_bench.canonical import canonical_json
 from nsrmp_bench.errors import DataIntegrityError
-from nsrmp_bench.storage.layout import RECORD_SUFFIX, TMP_SUFFIX
+from nsrmp_bench.storage.atomic import atomic_write_text, fsync_dir
+from nsrmp_bench.storage.layout import RECORD_SUFFIX
 
 __all__ = ["CATEGORY_KEYS", "EpisodeEntry", "ShardRecord", "atomic_write_text", "fsync_dir"]
 
@@ -114,28 +114,3 @@ class ShardRecord:
                 "it and generate that shard again"
             )
             raise DataIntegrityError(msg) from exc
-
-
-def fsync_dir(directory: Path) -> None:
-    """fsync a directory so a rename in it is durable (no-op where unsupported)."""
-    try:
-        fd = os.open(directory, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``path`` via ``path.tmp``: write, flush, fsync, rename, fsync the directory."""
-    tmp = path.with_name(path.name + TMP_SUFFIX)
-    with open(tmp, "w", encoding="utf-8") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-    fsync_dir(path.parent)

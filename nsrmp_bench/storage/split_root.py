@@ -43,10 +43,13 @@ def resolve_part(path: str | os.PathLike[str], part: str | None = None) -> Path:
     parts it holds and what to pass instead.
     """
     p = Path(path)
+    if p.name == MANIFEST_NAME and p.is_file():
+        return p.parent  # a part's manifest names its part
     parts = split_root_parts(p)
     if not parts:
         if part is not None and (p / part).is_dir() and not (p / MANIFEST_NAME).is_file():
             return p / part  # an unfinished part: its reader says how to finish it
+        _refuse_data_root(p)
         return p
     if part in parts:
         return p / part
@@ -59,6 +62,21 @@ def resolve_part(path: str | os.PathLike[str], part: str | None = None) -> Path:
         msg = (f"{p} is a split root holding the parts: {listed}, not the part {part!r} the "
                f"predictions are for; generate that part (generate --part {part}) or "
                f"{suggestion} with predictions for it")
+    raise InvalidArgument(msg)
+
+
+def _refuse_data_root(p: Path) -> None:
+    """A folder of split roots (``data/`` holding ``smoke/test/``...) is not one part."""
+    if not p.is_dir() or (p / MANIFEST_NAME).is_file() or any(p.glob("*.h5*")):
+        return
+    roots = {d.name: split_root_parts(d) for d in sorted(p.iterdir()) if d.is_dir()}
+    roots = {name: parts for name, parts in roots.items() if parts}
+    if not roots:
+        return
+    listed = "; ".join(f"{name}/ (parts {', '.join(parts)})" for name, parts in roots.items())
+    first = next(iter(roots))
+    msg = (f"{p} is a data root holding the split roots {listed}, not one split's data; "
+           f"pass one part's directory, e.g. {p / first / roots[first][-1]}")
     raise InvalidArgument(msg)
 
 

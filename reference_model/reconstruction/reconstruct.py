@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
 import textwrap
 import time
@@ -35,6 +34,7 @@ from nsrmp_bench._optional import require
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.reference_model.reconstruction.inputs import box_mask, moved_objects
 from nsrmp_bench.reference_model.reconstruction.ssim import ssim_scores
+from nsrmp_bench.storage.atomic import atomic_write_bytes, atomic_write_text
 
 __all__ = ["RENDERERS", "StepScore", "reconstruct_file", "summarise"]
 
@@ -64,10 +64,7 @@ def _write_png(path: Path, rgb: U8) -> None:
     if not ok:
         msg = f"could not encode {path} as PNG"
         raise InvalidArgument(msg)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_bytes(bytes(buf))
-    os.replace(tmp, path)
+    atomic_write_bytes(path, bytes(buf))
 
 
 def _label(cv2: Any, image: U8, text: str) -> U8:
@@ -264,9 +261,7 @@ def reconstruct_file(predictions: str | Path, data: str | Path, out: str | Path,
         "summary": summarise(scores),
         "steps": [asdict(s) for s in scores],
     }
-    tmp = out / "ssim.json.tmp"
-    tmp.write_text(json.dumps(result, indent=1) + "\n", "utf-8")
-    os.replace(tmp, out / "ssim.json")
+    atomic_write_text(out / "ssim.json", json.dumps(result, indent=1) + "\n")
     return result
 
 

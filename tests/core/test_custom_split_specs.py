@@ -63,10 +63,10 @@ def test_a_shipped_id_with_other_content_is_refused(tmp_path: Path) -> None:
     ({"parts": {"train": {"count": 4, "entropy": -1, "strata": [{"objects": [3], "steps": [1]}]}}},
      r"entropy is -1; expected a non-negative integer"),
     ({"parts": {"train": {"count": 4, "entropy": 1, "strata": [{"objects": [2, 16], "steps": [1]}]}}},
-     r"objects must lie in 3\.\.15"),
+     r"parts.train.strata\[0\].objects\[0\]: 2; expected a number of objects in 3\.\.15"),
     ({"parts": {"train": {"count": 4, "entropy": 1,
                           "strata": [{"objects": [3], "steps": [1], "phrasing": ["poetic"]}]}}},
-     r"phrasing='poetic'"),
+     r"parts.train.strata\[0\].phrasing\[0\]: 'poetic'; expected one of"),
     ({"parts": {"train": {"count": 4, "entropy": 1, "strata": [{"objects": [3], "step": [1]}]}}},
      r"unknown keys \['step'\]"),
 ])

@@ -64,7 +64,7 @@ def test_readme_download_with_progress(mirror: str, tmp_path: Path, tqdm: str) -
         env=env, capture_output=True, text=True, timeout=120,
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert "smoke-v2: 1 files verified" in proc.stdout
+    assert "smoke-v2: 1 file verified" in proc.stdout
     assert "corrupted" not in proc.stdout + proc.stderr
     verified = subprocess.run([*_cli(), "verify", str(out / "test")], capture_output=True,
                               text=True, timeout=120)
