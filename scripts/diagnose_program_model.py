@@ -1,7 +1,7 @@
 """The oracle ladder of a program model, through the public scorer.
 
     python scripts/diagnose_program_model.py --model nsrm-v2 --data DATA/paper-v2/test \
-        [--checkpoint best.pt] [--limit N] [--out DIR]
+        [--checkpoint best.pt] [--out DIR]
 
 Each rung replaces one more part of the model by the gold answer and scores the
 predictions file it writes with ``nsrmp-bench score``: the model as is; + gold split
@@ -88,7 +88,6 @@ def main() -> int:
     ap.add_argument("--model", default="nsrm-v2")
     ap.add_argument("--data", type=Path, required=True)
     ap.add_argument("--checkpoint", type=Path)
-    ap.add_argument("--limit", type=int)
     ap.add_argument("--out", type=Path)
     args = ap.parse_args()
     from nsrmp_bench.reference_model.predictions import write_model_predictions

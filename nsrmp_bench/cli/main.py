@@ -54,8 +54,9 @@ VERBS: dict[str, str] = {
 
 GROUPS: dict[str, tuple[str, ...]] = {
     "data": ("generate", "download", "verify", "info", "show", "sample", "export-mcap",
-             "audit", "pack", "import-nsrm"),
-    "scoring": ("score", "check-submission", "compare", "baseline", "leaderboard", "replay"),
+             "export-hf", "export-lerobot", "audit", "pack", "import-nsrm"),
+    "scoring": ("score", "check-submission", "compare", "baseline", "leaderboard", "replay",
+                "rollout"),
     "learned models": ("predict", "train", "detect", "score-detections", "reconstruct"),
     "results": ("evaluate", "plot", "report"),
 }

@@ -72,7 +72,9 @@ REPO = ROOT.parent
 FOLDERS = {"nsrmp_bench": REPO / "nsrmp_bench",
            "nsrmp_bench.generators": REPO / "generators",
            "nsrmp_bench.reference_model": REPO / "reference_model"}
-CORE_EXCEPT = ("nsrmp_bench.cli",)  # the command line is the application: it imports all
+# the applications, which import all: the command line, and the Gymnasium environment (it
+# runs the world and, as policies, the learned models)
+CORE_EXCEPT = ("nsrmp_bench.cli", "nsrmp_bench.envs")
 FORBIDDEN = {
     "core": ("nsrmp_bench.generators", "nsrmp_bench.reference_model", "nsrmp_bench.cli"),
     "nsrmp_bench.generators": ("nsrmp_bench.reference_model", "nsrmp_bench.results",

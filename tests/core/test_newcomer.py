@@ -177,7 +177,7 @@ def test_a_checkpoint_that_is_not_the_shipped_one_gets_its_own_name(
     assert label.startswith("nsrm-v1@run7-") and len(label) == len("nsrm-v1@run7-") + 8
 
     pred = tmp_path / "mine.jsonl"
-    assert cli("predict", "nsrm", "--data", smoke_v2_test, "--checkpoint", retrained,
+    assert cli("predict", "nsrm-v1", "--data", smoke_v2_test, "--checkpoint", retrained,
                "--out", pred, "--quiet") == 0
     header = json.loads(pred.read_text().splitlines()[0])["header"]
     assert header["model"] == label and header["base_model"] == "nsrm-v1"

@@ -16,7 +16,7 @@ pytest.importorskip("pybullet")
 
 from nsrmp_bench.envs.tabletop import TabletopEnv  # noqa: E402
 from nsrmp_bench.errors import InvalidAction, InvalidArgument, ResetNeeded, UnknownId  # noqa: E402
-from nsrmp_bench.scoring.projection import episode_boxes  # noqa: E402
+from nsrmp_bench.geometry.projection import episode_boxes  # noqa: E402
 from nsrmp_bench.storage import open as open_storage  # noqa: E402
 
 pytestmark = pytest.mark.sim

@@ -11,7 +11,7 @@ mlc = pytest.importorskip("mlcroissant")
 
 from nsrmp_bench.canonical import sha256_file  # noqa: E402
 from nsrmp_bench.release import pack  # noqa: E402
-from nsrmp_bench.scoring.projection import episode_boxes  # noqa: E402
+from nsrmp_bench.geometry.projection import episode_boxes  # noqa: E402
 from nsrmp_bench.storage import open as open_storage  # noqa: E402
 
 
