@@ -62,7 +62,7 @@ class ProgramModelBase(PredictionModel):
     supervision = SUPERVISION
     inputs = INPUTS
     tiny_overrides: ClassVar[dict[str, object]] = {
-        "epochs_warmup": 1, "epochs_single": 2, "epochs_joint": 1, "batch_size": 8}
+        "epochs_warmup": 3, "epochs_single": 1, "epochs_joint": 1, "batch_size": 8}
     model: ProgramModel
 
     @classmethod

@@ -135,7 +135,8 @@ def test_shipped_checkpoint_loads_and_runs(model_id: str, smoke_test: Path,
         out = tmp_path / "p.jsonl"
         assert main(["predict", model_id, "--data", str(smoke_test), "--out", str(out),
                      "--quiet"]) == 0
-        assert main(["check-submission", str(out), "--data", str(smoke_test)]) == 0
+        assert main(["check-submission", str(out), "--split", "smoke-v2/test", "--data",
+                     str(smoke_test)]) == 0
     elif entry.kind is Kind.DETECTOR:
         out = tmp_path / "d.jsonl"
         assert main(["detect", "--detector", "learned", "--data", str(smoke_test), "--out",

@@ -63,7 +63,8 @@ def test_shipped_checkpoint_predicts_without_targets(
     assert len(preds) == len(items) and all(p.program for p in preds)
     pred = tmp_path / "p.jsonl"
     assert main(["predict", model, "--data", str(smoke_test), "--out", str(pred)]) == 0
-    assert main(["check-submission", str(pred), "--data", str(smoke_test)]) == 0
+    assert main(["check-submission", str(pred), "--split", "smoke-v2/test", "--data",
+                 str(smoke_test)]) == 0
     header = json.loads(pred.read_text().splitlines()[0])
     assert header["model"] == model and header["split"] == "smoke-v2/test"
 
