@@ -1,8 +1,8 @@
 """A program model at inference: split, then run step after step on the world the
 previous steps left, and write what it did as predictions.
 
-The splitter cuts where its boundary probability, summed over a few tokens, reaches one
-half (any number of steps);
+The splitter makes as many cuts as its boundary probabilities add up to, at their peaks
+(any number of steps);
 each piece's subject and base are the best pair of distinct objects, its action the most
 probable one (the same distribution training scores, D1); the action rule moves the
 subject in 3D (D7), and positions are the moved objects' 3D centres (D8).
@@ -32,7 +32,7 @@ from nsrmp_bench.scoring.submission import Prediction
 __all__ = ["Decoded", "Oracle", "decode", "decoded_iou_m", "decoded_predictions"]
 
 MAX_STEPS = 12
-WINDOW = 2
+WINDOW = 3
 
 
 @dataclass(frozen=True)
@@ -56,21 +56,20 @@ class Decoded:
 
 
 def _cuts(splitter: Splitter, tokens: list[list[int]]) -> list[list[int]]:
-    """Cut where the splitter's boundary probability, summed over the ``WINDOW`` tokens
-    either side, reaches one half, at that window's most probable token (its teacher
-    spreads a boundary over the few places where the steps read the same)."""
+    """As many cuts as the splitter's boundary probabilities add up to (rounded), each at
+    the most probable token left once the ``WINDOW`` tokens either side of the cuts
+    already made are set aside (its teacher spreads a boundary over the few places where
+    the steps read the same)."""
     probs = torch.sigmoid(splitter(pad_tokens(tokens)))
     out = []
     for row, tok in zip(probs, tokens, strict=True):
         p = row[: len(tok)].clone()
+        k = min(int(round(float(p.sum()))), MAX_STEPS - 1)
         cuts: list[int] = []
-        while len(cuts) < MAX_STEPS - 1 and len(p):
+        while len(cuts) < k and float(p.max()) > 0:
             t = int(p.argmax())
-            lo, hi = max(0, t - WINDOW), t + WINDOW + 1
-            if float(p[lo:hi].sum()) < 0.5:
-                break
             cuts.append(t)
-            p[lo:hi] = 0.0
+            p[max(0, t - WINDOW) : t + WINDOW + 1] = 0.0
         out.append(sorted(cuts))
     return out
 
