@@ -139,6 +139,11 @@ class ProgramModelBase(PredictionModel):
                            f"{selected_on}"),
             read_seconds=read)
 
+    @property
+    def rule(self) -> ActionRule:
+        """The action rule this checkpoint was trained with."""
+        return self.model.rule
+
     def predict(self, items: Sequence[dict[str, Any]], camera: Camera,
                 oracle: Oracle | None = None) -> Iterator[Prediction]:
         """Predictions for ``items`` (``oracle``: the diagnosis's gold substitutions)."""

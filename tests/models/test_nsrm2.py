@@ -32,7 +32,7 @@ pytestmark = [pytest.mark.sim, pytest.mark.torch]
 def tiny_v2(tiny_paper: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("nsrm2-run")
     assert main(["train", "nsrm-v2", "--data", str(tiny_paper), "--out", str(out), "--quiet",
-                 "--set", "epochs_single=6", "--set", "epochs_joint=1"]) == 0
+                 "--set", "epochs_single=12", "--set", "epochs_joint=1"]) == 0
     return out
 
 
@@ -65,7 +65,7 @@ def test_shipped_checkpoint_predicts_without_targets(
     assert main(["predict", model, "--data", str(smoke_test), "--out", str(pred)]) == 0
     assert main(["check-submission", str(pred), "--split", "smoke-v2/test", "--data",
                  str(smoke_test)]) == 0
-    header = json.loads(pred.read_text().splitlines()[0])
+    header = json.loads(pred.read_text().splitlines()[0])["header"]
     assert header["model"] == model and header["split"] == "smoke-v2/test"
 
 
