@@ -66,9 +66,9 @@ from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import InvalidAction, InvalidArgument, ResetNeeded, UnknownId
 from nsrmp_bench.geometry.boxes import box_centres, box_iou
 from nsrmp_bench.geometry.camera import Camera
+from nsrmp_bench.geometry.projection import episode_boxes, episode_camera
 from nsrmp_bench.scene import Pose, State
 from nsrmp_bench.scoring.metrics import SUCCESS_IOU
-from nsrmp_bench.geometry.projection import episode_boxes, episode_camera
 from nsrmp_bench.scoring.submission import Prediction
 from nsrmp_bench.vocabulary import ACTIONS, MAX_OBJECTS, TABLE_TOP_Z
 

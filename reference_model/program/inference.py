@@ -64,7 +64,7 @@ def _cuts(splitter: Splitter, tokens: list[list[int]]) -> list[list[int]]:
     out = []
     for row, tok in zip(probs, tokens, strict=True):
         p = row[: len(tok)].clone()
-        k = min(int(round(float(p.sum()))), MAX_STEPS - 1)
+        k = min(round(float(p.sum())), MAX_STEPS - 1)
         cuts: list[int] = []
         while len(cuts) < k and float(p.max()) > 0:
             t = int(p.argmax())
