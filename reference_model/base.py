@@ -42,7 +42,8 @@ from nsrmp_bench.results.model_cards import TrainingCard, write_training_card
 from nsrmp_bench.scoring.submission import Prediction
 from nsrmp_bench.storage.records import atomic_write_text
 
-__all__ = ["LearnedModel", "PredictionModel", "TrainingPlan", "run_files"]
+__all__ = ["LearnedModel", "PredictionModel", "ProgramPredictionModel", "TrainingPlan",
+           "run_files"]
 
 M = TypeVar("M", bound="LearnedModel")
 
@@ -211,3 +212,15 @@ class PredictionModel(LearnedModel):
     def predict(self, items: Sequence[dict[str, Any]], camera: Camera) -> Iterator[Prediction]:
         """Predictions for dataset items (``{"id", "inputs"}``; never ``targets``);
         ``camera`` back-projects positions."""
+
+
+class ProgramPredictionModel(PredictionModel):
+    """A model of kind program: it also says the grounded program it predicts, which the
+    closed loop (:mod:`nsrmp_bench.envs.policies`) issues one step per move."""
+
+    kind: ClassVar[Kind] = Kind.PROGRAM
+
+    @abstractmethod
+    def programs(self, items: Sequence[dict[str, Any]],
+                 camera: Camera) -> list[list[tuple[int, int, int]]]:
+        """Per item, its predicted steps ``[(action index, subject, base), ...]``."""

@@ -7,8 +7,8 @@ that is called at the start of every episode. Named policies:
 * ``oracle``: the gold grounded program, one DSL step per move, then done. It reads the
   gold program from the environment (privileged: the upper bound, as ``oracle-v1``).
 * ``noop``: says done at once (the floor).
-* ``nsrm`` / ``nmn`` (or a model id such as ``nsrm-v1``): a shipped program model (torch
-  extra). It reads the instruction, the initial RGB-D and the gold boxes (so the
+* ``nsrm`` / ``nmn`` (the v2 models; or a model id such as ``nsrm-v1``): a shipped program
+  model (torch extra). It reads the instruction, the initial RGB-D and the gold boxes (so the
   environment needs ``boxes="gold"``; ``rollout`` sets it) once, predicts its grounded
   program, and issues it one DSL step per move; each step's target is computed by the
   environment on the real state after the previous move (closed-loop execution, the
@@ -37,7 +37,7 @@ from nsrmp_bench.errors import InvalidArgument
 __all__ = ["BOX_READING", "NAMED_POLICIES", "NoopPolicy", "OraclePolicy", "Policy",
            "ProgramModelPolicy", "check_policy", "make_policy"]
 
-BOX_READING = frozenset({"nsrm", "nsrm-v1", "nmn", "nmn-v1"})
+BOX_READING = frozenset({"nsrm", "nsrm-v1", "nsrm-v2", "nmn", "nmn-v1", "nmn-v2"})
 """Named policies that read the gold boxes (the environment needs ``boxes="gold"``)."""
 
 
@@ -77,7 +77,15 @@ class ProgramModelPolicy:
             msg = (f"policy {model_id!r} reads the gold boxes: make the environment with "
                    "boxes='gold' (rollout: --boxes gold)")
             raise InvalidArgument(msg)
-        self.model = load_model(model_id)
+        from nsrmp_bench.reference_model.base import ProgramPredictionModel
+
+        model = load_model(model_id)
+        if not isinstance(model, ProgramPredictionModel):
+            msg = (f"policy {model_id!r} is a {model.kind.value} model; the closed loop "
+                   "issues programs, so name a program model (nsrm, nmn, nsrm-v1, ...)")
+            raise InvalidArgument(msg)
+        self.model = model
+        self.camera = env.unwrapped.camera
         self._steps: list[tuple[int, int, int]] = []
         self._k = 0
 
@@ -88,8 +96,8 @@ class ProgramModelPolicy:
             "instruction": observation["instruction"], "rgb": observation["rgb"],
             "depth": observation["depth"],
             "boxes": np.asarray(observation["boxes"][:n], dtype=np.float32)}}
-        _, inferred = self.model.infer([item])
-        self._steps = [(int(a), int(s), int(r)) for a, s, r in inferred.steps[0]]
+        program = self.model.programs([item], self.camera)[0]
+        self._steps = [(int(a), int(s), int(r)) for a, s, r in program]
         self._k = 0
 
     def __call__(self, observation: dict[str, Any]) -> dict[str, Any]:
@@ -110,10 +118,12 @@ class NoopPolicy:
 NAMED_POLICIES: dict[str, Callable[[Any], Policy]] = {
     "oracle": OraclePolicy,
     "noop": lambda env: NoopPolicy(),
-    "nsrm": lambda env: ProgramModelPolicy(env, "nsrm-v1"),
+    "nsrm": lambda env: ProgramModelPolicy(env, "nsrm-v2"),
     "nsrm-v1": lambda env: ProgramModelPolicy(env, "nsrm-v1"),
-    "nmn": lambda env: ProgramModelPolicy(env, "nmn-v1"),
+    "nsrm-v2": lambda env: ProgramModelPolicy(env, "nsrm-v2"),
+    "nmn": lambda env: ProgramModelPolicy(env, "nmn-v2"),
     "nmn-v1": lambda env: ProgramModelPolicy(env, "nmn-v1"),
+    "nmn-v2": lambda env: ProgramModelPolicy(env, "nmn-v2"),
 }
 """Policy name -> factory taking the environment."""
 

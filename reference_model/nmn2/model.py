@@ -74,7 +74,8 @@ class AttentionStepModel(StepModel):
 
     def code(self, pieces: Tensor) -> Tensor:
         """Contextual word states (P, T, hidden)."""
-        return self.encoder(pieces)
+        states: Tensor = self.encoder(pieces)
+        return states
 
     def step(self, code: Tensor, tokens: Tensor, feats: Tensor, centres: Tensor,
              previous: Tensor, mask: Tensor) -> StepOutput:

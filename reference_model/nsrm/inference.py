@@ -9,14 +9,13 @@ from __future__ import annotations
 from abc import abstractmethod
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any, ClassVar, Protocol
+from typing import Any, Protocol
 
 import torch
 from torch import Tensor
 
 from nsrmp_bench.geometry.camera import Camera
-from nsrmp_bench.reference_model.base import PredictionModel
-from nsrmp_bench.reference_model.contract import Kind
+from nsrmp_bench.reference_model.base import ProgramPredictionModel
 from nsrmp_bench.reference_model.encoded import Encoded, encode_inputs
 from nsrmp_bench.reference_model.nsrm.loss import iou, world_to_boxes
 from nsrmp_bench.reference_model.nsrm.model import NSRM, hard_pointers, piece_parses, split_pieces
@@ -127,13 +126,12 @@ def inferred_predictions(enc: Encoded, res: Inferred, camera: Camera) -> Iterato
     return model_predictions(enc.ids, init, res.steps, boxes, depths, camera)
 
 
-class ProgramPredictor(PredictionModel):
+class ProgramPredictor(ProgramPredictionModel):
     """A loaded program model (NSRM, NMN+): predicts from what ``EpisodeDataset`` gives as
     ``inputs`` only. A subclass names its id, config and network
     (:meth:`~nsrmp_bench.reference_model.base.LearnedModel.build_network`), its curriculum
     (``plan_training``) and its inference (:meth:`run`)."""
 
-    kind: ClassVar[Kind] = Kind.PROGRAM
 
     @abstractmethod
     def run(self, enc: Encoded) -> Inferred:
@@ -149,3 +147,9 @@ class ProgramPredictor(PredictionModel):
         """Predictions for dataset items (``{"id", "inputs"}``), positions via ``camera``."""
         enc, res = self.infer(items)
         return inferred_predictions(enc, res, camera)
+
+    def programs(self, items: Sequence[dict[str, Any]],
+                 camera: Camera) -> list[list[tuple[int, int, int]]]:
+        """Per item, its predicted steps (``camera`` unused: v1 reads 2D boxes only)."""
+        del camera
+        return self.infer(items)[1].steps

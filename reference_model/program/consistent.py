@@ -12,6 +12,7 @@ read: only boxes, depth and the camera.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,8 +26,14 @@ from nsrmp_bench.reference_model.program.scene3d import (
     project_boxes,
 )
 
-__all__ = ["Consistent", "all_steps", "consistent_programs", "explained", "fit_rule",
-           "moved_objects"]
+__all__ = [
+    "Consistent",
+    "all_steps",
+    "changed_boxes",
+    "consistent_programs",
+    "explained",
+    "fit_rule",
+]
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -51,7 +58,7 @@ def all_steps(n: int) -> I64:
     return out
 
 
-def moved_objects(initial: NDArray[np.floating], final: NDArray[np.floating],
+def changed_boxes(initial: NDArray[np.floating], final: NDArray[np.floating],
                   min_iou: float = 0.8) -> NDArray[np.bool_]:
     """Which objects' boxes changed (IoU of initial and final box below ``min_iou``)."""
     out: NDArray[np.bool_] = box_iou(initial, final) < min_iou
@@ -98,7 +105,7 @@ def consistent_programs(state: SceneState, final: NDArray[np.floating], rule: Ac
     return Consistent(one.astype(np.int64), two.astype(np.int64), after1[first[keep]])
 
 
-def fit_rule(states: list[SceneState], finals: list[NDArray[np.floating]],
+def fit_rule(states: Sequence[SceneState], finals: Sequence[NDArray[np.floating]],
              initial: ActionRule | None = None, rounds: int = 2) -> ActionRule:
     """The rule's scalars that best explain episodes where exactly one box changed: the
     mean over episodes of the best one-step program's worst-object IoU, maximised one

@@ -14,9 +14,9 @@ from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.reference_model.encoded import Encoded, encode_inputs, encode_targets
 from nsrmp_bench.reference_model.program.consistent import (
     Consistent,
+    changed_boxes,
     consistent_programs,
     fit_rule,
-    moved_objects,
 )
 from nsrmp_bench.reference_model.program.scene3d import ActionRule, SceneState, scene_state
 from nsrmp_bench.reference_model.tokens import PAD, Vocabulary
@@ -85,7 +85,7 @@ def with_training_signal(data: ProgramData, items: list[dict[str, Any]],
         n = len(state)
         final = data.enc.final_boxes[i, :n].numpy().astype(np.float64)
         cons.append(consistent_programs(state, final, rule))
-        moved.append(int(moved_objects(data.enc.boxes[i, :n].numpy(), final).sum()))
+        moved.append(int(changed_boxes(data.enc.boxes[i, :n].numpy(), final).sum()))
     data.consistent = cons
     data.moved = moved
     return data
@@ -98,7 +98,7 @@ def fit_part_rule(data: ProgramData, limit: int = 400) -> ActionRule:
     for i, state in enumerate(data.states):
         n = len(state)
         final = data.enc.final_boxes[i, :n].numpy().astype(np.float64)
-        if int(moved_objects(data.enc.boxes[i, :n].numpy(), final).sum()) == 1:
+        if int(changed_boxes(data.enc.boxes[i, :n].numpy(), final).sum()) == 1:
             states.append(state)
             finals.append(final)
         if len(states) >= limit:

@@ -137,7 +137,7 @@ def decoded_iou_m(data: ProgramData, decoded: Decoded) -> float:
     """Mean IoU of the gold-moved objects' predicted and final boxes (the in-loop
     validation score; the public scorer computes the official one)."""
     from nsrmp_bench.geometry.boxes import box_iou
-    from nsrmp_bench.reference_model.program.consistent import moved_objects
+    from nsrmp_bench.reference_model.program.consistent import changed_boxes
 
     assert data.enc.final_boxes is not None
     total, count = 0.0, 0
@@ -146,7 +146,7 @@ def decoded_iou_m(data: ProgramData, decoded: Decoded) -> float:
         init = data.enc.boxes[i, :n].numpy()
         final = data.enc.final_boxes[i, :n].numpy()
         pred = decoded.boxes[i][-1] if len(decoded.boxes[i]) else init
-        moved = moved_objects(init, final)
+        moved = changed_boxes(init, final)
         if moved.any():
             total += float(box_iou(pred[moved], final[moved]).mean())
             count += 1

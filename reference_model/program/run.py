@@ -21,8 +21,7 @@ from typing import Any, ClassVar
 import torch
 
 from nsrmp_bench.geometry.camera import Camera
-from nsrmp_bench.reference_model.base import PredictionModel, TrainingPlan
-from nsrmp_bench.reference_model.contract import Kind
+from nsrmp_bench.reference_model.base import ProgramPredictionModel, TrainingPlan
 from nsrmp_bench.reference_model.encoded import encode_targets
 from nsrmp_bench.reference_model.program.data import (
     ProgramData,
@@ -55,10 +54,9 @@ SUPERVISION = (
 INPUTS = "instruction text, initial RGB, initial depth, initial (gold) boxes, the camera"
 
 
-class ProgramModelBase(PredictionModel):
+class ProgramModelBase(ProgramPredictionModel):
     """A program model on the shared parts: only its step model differs."""
 
-    kind = Kind.PROGRAM
     supervision = SUPERVISION
     inputs = INPUTS
     tiny_overrides: ClassVar[dict[str, object]] = {
@@ -152,6 +150,13 @@ class ProgramModelBase(PredictionModel):
         decoded = decode(self.model.step, self.model.splitter, data, self.model.rule, oracle)
         ids = [str(it["id"]) for it in items]
         return decoded_predictions(ids, data, decoded, camera)
+
+    def programs(self, items: Sequence[dict[str, Any]],
+                 camera: Camera) -> list[list[tuple[int, int, int]]]:
+        """Per item, its decoded steps."""
+        self.set_threads()
+        data = program_data(list(items), self.vocab, camera, self.model.rule)
+        return decode(self.model.step, self.model.splitter, data, self.model.rule).steps
 
 
 def validation_figures(data: ProgramData, decoded: Decoded,

@@ -103,8 +103,10 @@ def single_loss(model: StepModel, data: ProgramData, rows: Sequence[int]) -> Ten
     ll = _segment_logsumexp(_score(out, s, p), s, len(rows))
     ok = torch.isfinite(ll)
     if not bool(ok.any()):
-        return feats.sum() * 0.0
-    return -ll[ok].mean()
+        none: Tensor = feats.sum() * 0.0
+        return none
+    loss: Tensor = -ll[ok].mean()
+    return loss
 
 
 def _first_outputs(model: StepModel, batch: EpisodeBatch, feats: Tensor,
