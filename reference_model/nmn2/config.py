@@ -17,6 +17,7 @@ class NMN2Config(ModelConfig):
     concept_dim: int = 32
     hidden: int = 64
     heads: int = 2
+    score: str = "mlp"  # "mlp": an MLP of query * key (nmn-v1's); "dot": their scaled dot
     epochs_warmup: int = 2  # first stage: see StepModel.warmup_parameters
     epochs_single: int = 14
     epochs_joint: int = 3

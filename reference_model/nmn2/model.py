@@ -33,8 +33,13 @@ class _RoleAttention(nn.Module):
     to a key, and scores the object by an MLP of ``query * key``; the heads' scores add
     (their distributions multiply). Objects are scored independently."""
 
-    def __init__(self, word_dim: int, object_dim: int, hidden: int, heads: int) -> None:
+    def __init__(self, word_dim: int, object_dim: int, hidden: int, heads: int,
+                 score: str = "mlp") -> None:
         super().__init__()
+        if score not in ("mlp", "dot"):
+            msg = f"score must be 'mlp' or 'dot', not {score!r}"
+            raise ValueError(msg)
+        self.dot = score == "dot"
         self.words = nn.Linear(word_dim, heads)
         self.query = nn.ModuleList(nn.Sequential(nn.Linear(2 * word_dim, hidden), nn.ReLU(),
                                                  nn.Linear(hidden, hidden))
@@ -44,17 +49,19 @@ class _RoleAttention(nn.Module):
                                  for _ in range(heads))
         self.score = nn.ModuleList(nn.Sequential(nn.Linear(hidden, hidden // 2), nn.ReLU(),
                                                  nn.Linear(hidden // 2, 1))
-                                   for _ in range(heads))
+                                   for _ in range(0 if self.dot else heads))
+        self.scale = hidden ** -0.5
 
     def forward(self, h: Tensor, valid: Tensor, objects: Tensor, mask: Tensor) -> Tensor:
         att = torch.softmax(self.words(h).masked_fill(~valid[..., None], float("-inf")), 1)
         mean = (h * valid[..., None]).sum(1) / valid.sum(1, keepdim=True).clamp_min(1)
         total = torch.zeros(mask.shape)
-        for k, (q, key, score) in enumerate(zip(self.query, self.key, self.score,
-                                                strict=True)):
+        for k, (q, key) in enumerate(zip(self.query, self.key, strict=True)):
             summary = torch.einsum("rt,rtd->rd", att[..., k], h)
             query = q(torch.cat([summary, mean], -1))
-            total = total + score(query[:, None] * key(objects)).squeeze(-1)
+            both = query[:, None] * key(objects)
+            total = total + (both.sum(-1) * self.scale if self.dot
+                             else self.score[k](both).squeeze(-1))
         return torch.log_softmax(total.masked_fill(~mask, float("-inf")), -1)
 
 
@@ -68,8 +75,8 @@ class AttentionStepModel(StepModel):
         self.perception = Perception(cfg.concept_dim)
         self.encoder = TokenEncoder(vocab_size, d)
         obj = cfg.concept_dim + 4
-        self.subject = _RoleAttention(d, obj, d, cfg.heads)
-        self.base = _RoleAttention(d, obj, d, cfg.heads)
+        self.subject = _RoleAttention(d, obj, d, cfg.heads, cfg.score)
+        self.base = _RoleAttention(d, obj, d, cfg.heads, cfg.score)
         self.action = nn.Linear(d, 3)
 
     def code(self, pieces: Tensor) -> Tensor:

@@ -20,10 +20,14 @@ from numpy.typing import NDArray
 
 from nsrmp_bench.geometry.boxes import box_iou
 from nsrmp_bench.reference_model.program.scene3d import (
+    LEFT,
+    TOP,
     ActionRule,
     SceneState,
     move,
     project_boxes,
+    side_features,
+    top_features,
 )
 
 __all__ = [
@@ -106,20 +110,62 @@ def consistent_programs(state: SceneState, final: NDArray[np.floating], rule: Ac
 
 
 def fit_rule(states: Sequence[SceneState], finals: Sequence[NDArray[np.floating]],
-             initial: ActionRule | None = None, rounds: int = 2) -> ActionRule:
-    """The rule's scalars that best explain episodes where exactly one box changed: the
-    mean over episodes of the best one-step program's worst-object IoU, maximised one
-    scalar at a time over a grid. (``centre`` shapes the states themselves and stays at
-    the geometric half-size.)"""
+             initial: ActionRule | None = None, rounds: int = 3) -> ActionRule:
+    """The rule's weights that best explain episodes where exactly one box changed.
+
+    Each round takes every episode's best one-step program under the current rule, reads
+    where the final box puts the mover (``top``: the point of the ray through the final
+    box's centre above the base; ``left``/``right``: where that ray meets the mover's
+    resting height) and fits the lift and the side distance to it by least squares over
+    their features, dropping residuals beyond three robust deviations. (``centre`` shapes
+    the states themselves and stays fixed.)"""
     rule = initial or ActionRule()
-    grids = {"lift": np.linspace(0.4, 1.4, 21), "gap": np.linspace(0.8, 2.4, 17)}
-
-    def value(r: ActionRule) -> float:
-        return float(np.mean([explained(s, f, r)[1].max()
-                              for s, f in zip(states, finals, strict=True)]))
-
     for _ in range(rounds):
-        for name, grid in grids.items():
-            scores = [value(ActionRule(**{**rule.to_dict(), name: float(v)})) for v in grid]
-            rule = ActionRule(**{**rule.to_dict(), name: float(grid[int(np.argmax(scores))])})
+        rows: dict[bool, list[F64]] = {True: [], False: []}
+        want: dict[bool, list[float]] = {True: [], False: []}
+        for state, final in zip(states, finals, strict=True):
+            steps, score = explained(state, final, rule)
+            best = int(np.argmax(score))
+            if score[best] < 0.5:
+                continue
+            s, b, a = (int(v) for v in steps[best])
+            box = np.asarray(final, dtype=np.float64)[s]
+            uv = np.array([[(box[0] + box[2]) / 2, (box[1] + box[3]) / 2]])
+            eye = np.asarray(state.camera.eye, dtype=np.float64)
+            ray = state.camera.backproject(uv, np.ones(1))[0] - eye
+            base = state.centres[b]
+            one_s, one_b = np.array([s]), np.array([b])
+            if a == TOP:
+                flat = ray[:2] @ ray[:2]
+                if flat < 1e-12:
+                    continue
+                t = float((base[:2] - eye[:2]) @ ray[:2] / flat)
+                rows[True].append(top_features(state, one_s, one_b)[0])
+                want[True].append(eye[2] + t * ray[2] - base[2])
+            else:
+                if abs(ray[2]) < 1e-12:
+                    continue
+                t = float((state.centres[s, 2] - eye[2]) / ray[2])
+                sign = -1.0 if a == LEFT else 1.0
+                rows[False].append(side_features(state, one_s, one_b)[0])
+                want[False].append(sign * (eye[0] + t * ray[0] - base[0]))
+        top = _robust_lstsq(rows[True], want[True], rule.top)
+        side = _robust_lstsq(rows[False], want[False], rule.side)
+        rule = ActionRule(rule.centre, top, side)
     return rule
+
+
+def _robust_lstsq(rows: list[F64], want: list[float],
+                  fallback: tuple[float, ...]) -> tuple[float, ...]:
+    """Least squares ``rows @ w = want``, refitted without residuals beyond three robust
+    deviations; ``fallback`` when there are too few rows to fit."""
+    if len(rows) < 4 * len(fallback):
+        return fallback
+    x, y = np.asarray(rows), np.asarray(want)
+    w = np.linalg.lstsq(x, y, rcond=None)[0]
+    r = y - x @ w
+    mad = float(np.median(np.abs(r - np.median(r)))) * 1.4826
+    keep = np.abs(r) <= 3 * max(mad, 1e-6)
+    if int(keep.sum()) >= 4 * len(fallback):
+        w = np.linalg.lstsq(x[keep], y[keep], rcond=None)[0]
+    return tuple(float(v) for v in w)

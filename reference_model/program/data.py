@@ -91,7 +91,7 @@ def with_training_signal(data: ProgramData, items: list[dict[str, Any]],
     return data
 
 
-def fit_part_rule(data: ProgramData, limit: int = 400) -> ActionRule:
+def fit_part_rule(data: ProgramData, limit: int = 1000) -> ActionRule:
     """The action rule fitted on up to ``limit`` episodes where exactly one box changed."""
     assert data.enc.final_boxes is not None
     states, finals = [], []

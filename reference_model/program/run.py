@@ -71,7 +71,10 @@ class ProgramModelBase(ProgramPredictionModel):
     @classmethod
     def build_network(cls, config: Any, vocab_size: int,
                       state: Mapping[str, torch.Tensor]) -> ProgramModel:
-        return ProgramModel(cls.step_model(config, vocab_size), Splitter(vocab_size))
+        model = ProgramModel(cls.step_model(config, vocab_size), Splitter(vocab_size))
+        if "rule_values" in state:  # a checkpoint of the first rule holds three values
+            model.rule_values = torch.zeros_like(state["rule_values"])
+        return model
 
     @classmethod
     def plan_training(cls, data: Path, config: Any, seed: int) -> TrainingPlan:

@@ -5,13 +5,16 @@ centre is back-projected through the camera at the depth of its visible surface 
 ``rule.centre`` times its estimated size (the centre lies behind the visible surface: v1
 back-projected at the surface and put every position 2.5 cm short, D8), and its size is
 the box width at that depth. An action places the mover in 3D beside or on its base and
-projects the result back into the image (D7): ``top`` lifts it by ``rule.lift`` times the
-two objects' mean size above the base's centre; ``left``/``right`` set it ``rule.gap``
-times that mean size along world -x/+x (image-left is -x) at its resting height. The new
-box keeps the mover's box size, scaled by the ratio of its old and new camera depths.
+projects the result back into the image (D7): ``top`` lifts it above the base's centre by
+a weighted sum of the two objects' sizes and heights (:data:`TOP_FEATURES`);
+``left``/``right`` set it beside the base along world -x/+x (image-left is -x), at its
+resting height, by a weighted sum of the two sizes and a constant margin
+(:data:`SIDE_FEATURES`). The new box keeps the mover's box size, scaled by the ratio of
+its old and new camera depths.
 
-The three scalars are the rule's learned corrections, fitted on training episodes by
-:func:`fit_rule`. Everything is numpy and vectorised over candidate programs.
+The weights are the rule's learned corrections, fitted on training episodes by
+:func:`~.consistent.fit_rule` (least squares on where the final boxes put the movers).
+Everything is numpy and vectorised over candidate programs.
 """
 
 from __future__ import annotations
@@ -24,47 +27,69 @@ from numpy.typing import NDArray
 
 from nsrmp_bench.geometry.camera import Camera
 
-__all__ = ["ActionRule", "SceneState", "move", "project_boxes", "scene_state"]
+__all__ = ["LEFT", "RIGHT", "SIDE_FEATURES", "TOP", "TOP_FEATURES", "ActionRule", "SceneState",
+           "move", "project_boxes", "scene_state", "side_features", "top_features"]
 
 F64 = NDArray[np.float64]
 TOP, LEFT, RIGHT = 0, 1, 2  # indices into nsrmp_bench.vocabulary.ACTIONS
 
 
+TOP_FEATURES = ("mover size", "base size", "mover height", "base height", "1")
+SIDE_FEATURES = ("mover size", "base size", "mover height", "base height", "1")
+
+
 @dataclass(frozen=True)
 class ActionRule:
-    """The fitted scalars of the action rule (see the module doc)."""
+    """The fitted coefficients of the action rule (see the module doc): ``top`` weighs
+    :data:`TOP_FEATURES` into the lift above the base's centre, ``side`` weighs
+    :data:`SIDE_FEATURES` into the distance beside it along world x."""
 
     centre: float = 0.3
-    lift: float = 0.75
-    gap: float = 1.5
+    top: tuple[float, ...] = (0.375, 0.375, 0.0, 0.0, 0.0)
+    side: tuple[float, ...] = (0.75, 0.75, 0.0, 0.0, 0.0)
 
-    def to_dict(self) -> dict[str, float]:
+    def __post_init__(self) -> None:
+        if len(self.top) != len(TOP_FEATURES) or len(self.side) != len(SIDE_FEATURES):
+            msg = (f"an action rule has {len(TOP_FEATURES)} top and {len(SIDE_FEATURES)} "
+                   f"side coefficients, not {len(self.top)} and {len(self.side)}")
+            raise ValueError(msg)
+
+    def to_dict(self) -> dict[str, Any]:
         """JSON-able form (stored in checkpoints)."""
         return asdict(self)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> ActionRule:
         """Inverse of :meth:`to_dict`."""
-        return cls(**{k: float(v) for k, v in data.items()})
+        return cls(float(data["centre"]), tuple(float(v) for v in data["top"]),
+                   tuple(float(v) for v in data["side"]))
 
     def values(self) -> list[float]:
-        """(centre, lift, gap): the form a checkpoint's buffer holds."""
-        return [self.centre, self.lift, self.gap]
+        """(centre, *top, *side): the form a checkpoint's buffer holds."""
+        return [self.centre, *self.top, *self.side]
 
     @classmethod
     def from_values(cls, values: list[float]) -> ActionRule:
-        """Inverse of :meth:`values`."""
-        centre, lift, gap = (float(v) for v in values)
-        return cls(centre, lift, gap)
+        """Inverse of :meth:`values`; three values are the first design's (centre, lift,
+        gap), a lift and a gap times the two objects' mean size."""
+        v = [float(x) for x in values]
+        if len(v) == 3:
+            centre, lift, gap = v
+            return cls(centre, (lift / 2, lift / 2, 0.0, 0.0, 0.0),
+                       (gap / 2, gap / 2, 0.0, 0.0, 0.0))
+        t = 1 + len(TOP_FEATURES)
+        return cls(v[0], tuple(v[1:t]), tuple(v[t:]))
 
 
 @dataclass(frozen=True)
 class SceneState:
-    """One episode's objects: centres (N, 3) world metres, sizes (N,) metres, box sizes
-    (N, 2) pixels and camera depths (N,) of the initial state, and the camera."""
+    """One episode's objects: centres (N, 3) world metres, sizes and heights (N,) metres
+    (the box's width and height at the visible surface's depth), box sizes (N, 2) pixels
+    and camera depths (N,) of the initial state, and the camera."""
 
     centres: F64
     sizes: F64
+    heights: F64
     box_wh: F64
     depths: F64
     camera: Camera
@@ -81,9 +106,22 @@ def scene_state(boxes: NDArray[Any], surface_depth: NDArray[Any], camera: Camera
     d = np.asarray(surface_depth, dtype=np.float64).reshape(-1)
     wh = np.stack([b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]], axis=1)
     size = wh[:, 0] * d / camera.focal
+    height = wh[:, 1] * d / camera.focal
     depth = d + rule.centre * size
     uv = np.stack([(b[:, 0] + b[:, 2]) / 2, (b[:, 1] + b[:, 3]) / 2], axis=1)
-    return SceneState(camera.backproject(uv, depth), size, wh, depth, camera)
+    return SceneState(camera.backproject(uv, depth), size, height, wh, depth, camera)
+
+
+def top_features(state: SceneState, subject: NDArray[Any], base: NDArray[Any]) -> F64:
+    """(K, len(TOP_FEATURES)) features of ``top`` steps."""
+    return np.stack([state.sizes[subject], state.sizes[base], state.heights[subject],
+                     state.heights[base], np.ones(len(subject))], axis=1)
+
+
+def side_features(state: SceneState, subject: NDArray[Any], base: NDArray[Any]) -> F64:
+    """(K, len(SIDE_FEATURES)) features of ``left``/``right`` steps."""
+    return np.stack([state.sizes[subject], state.sizes[base], state.heights[subject],
+                     state.heights[base], np.ones(len(subject))], axis=1)
 
 
 def move(state: SceneState, centres: F64, subject: NDArray[Any], base: NDArray[Any],
@@ -96,12 +134,13 @@ def move(state: SceneState, centres: F64, subject: NDArray[Any], base: NDArray[A
     a = np.asarray(action)
     out = centres.copy()
     base_c = centres[k, bs]
-    mean = (state.sizes[s] + state.sizes[bs]) / 2
     new = base_c.copy()
     top = a == TOP
-    new[top, 2] = base_c[top, 2] + rule.lift * mean[top]
+    lift = top_features(state, s[top], bs[top]) @ np.asarray(rule.top)
+    gap = side_features(state, s[~top], bs[~top]) @ np.asarray(rule.side)
+    new[top, 2] = base_c[top, 2] + lift
     side = np.where(a == LEFT, -1.0, 1.0)
-    new[~top, 0] = base_c[~top, 0] + side[~top] * rule.gap * mean[~top]
+    new[~top, 0] = base_c[~top, 0] + side[~top] * gap
     new[~top, 2] = state.centres[s[~top], 2]  # back at its resting height
     out[k, s] = new
     return out
