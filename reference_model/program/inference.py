@@ -3,8 +3,11 @@ previous steps left, and write what it did as predictions.
 
 The splitter makes as many cuts as its boundary probabilities add up to, at their peaks
 (any number of steps);
-each piece's subject and base are the best pair of distinct objects, its action the most
-probable one (the same distribution training scores, D1); the action rule moves the
+each piece's action is the most probable one (the same distribution training scores, D1),
+its subject and base the best pair of distinct objects that the DSL allows on the stacks
+the previous steps built (:func:`legal_pairs`: no object under another is picked up, none
+is stacked onto a covered object or onto its own support, no stack grows past
+``MAX_STACK``); the action rule moves the
 subject in 3D (D7), and positions are the moved objects' 3D centres (D8).
 
 :class:`Oracle` replaces parts of the model by the gold answer, one at a time, for the
@@ -25,14 +28,38 @@ from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.reference_model.predictions import model_predictions
 from nsrmp_bench.reference_model.program.data import ProgramData
 from nsrmp_bench.reference_model.program.modules import Splitter, StepModel
-from nsrmp_bench.reference_model.program.scene3d import ActionRule, move, project_boxes
+from nsrmp_bench.reference_model.program.scene3d import TOP, ActionRule, move, project_boxes
 from nsrmp_bench.reference_model.program.training import EpisodeBatch, pad_tokens
 from nsrmp_bench.scoring.submission import Prediction
 
-__all__ = ["Decoded", "Oracle", "decode", "decoded_iou_m", "decoded_predictions"]
+__all__ = ["Decoded", "Oracle", "decode", "decoded_iou_m", "decoded_predictions",
+           "legal_pairs"]
 
 MAX_STEPS = 12
 WINDOW = 3
+MAX_STACK = 3  # the DSL's (nsrmp_bench.dsl.actions.MAX_STACK): objects in one stack
+
+
+def legal_pairs(on: Sequence[int], action: int, n: int) -> NDArray[np.bool_]:
+    """(n, n) which (subject, base) pairs the DSL allows for ``action`` when object ``i``
+    rests on object ``on[i]`` (-1: on the table; objects past ``len(on)`` are padding): the
+    two differ, the subject carries nothing; for ``top`` the base carries nothing, is not
+    under the subject, and its stack has room."""
+    legal = ~np.eye(n, dtype=bool)
+    under = {b for b in on if b >= 0}
+    for b in under:
+        legal[b, :] = False
+    if action == TOP:
+        for b in under:
+            legal[:, b] = False
+        for i in range(len(on)):
+            level, j, seen = 1, on[i], 0
+            while j >= 0 and seen < len(on):
+                legal[i, j] = False  # onto its own support (or below it)
+                level, j, seen = level + 1, on[j], seen + 1
+            if level >= MAX_STACK:
+                legal[:, i] = False
+    return legal
 
 
 @dataclass(frozen=True)
@@ -93,6 +120,7 @@ def decode(model: StepModel, splitter: Splitter, data: ProgramData, rule: Action
         n_obj = batch.mask.shape[1]
         centres = [data.states[r].centres.copy() for r in rows]
         previous = torch.zeros((len(rows), n_obj))
+        on = [[-1] * len(data.states[r]) for r in rows]
         steps: list[list[tuple[int, int, int]]] = [[] for _ in rows]
         boxes: list[list[NDArray[np.float64]]] = [[] for _ in rows]
         depths: list[list[NDArray[np.float64]]] = [[] for _ in rows]
@@ -107,15 +135,19 @@ def decode(model: StepModel, splitter: Splitter, data: ProgramData, rule: Action
                                           previous[idx], batch.mask[idx])
             pair = s_lp[:, :, None] + b_lp[:, None, :]
             pair = pair.masked_fill(torch.eye(n_obj, dtype=torch.bool)[None], float("-inf"))
-            best = pair.reshape(len(act), -1).argmax(-1)
             for j, i in enumerate(act):
                 r = rows[i]
-                subj, base = divmod(int(best[j]), n_obj)
                 action = int(a_lp[j].argmax())
-                if oracle.grounding is not None and k < len(oracle.grounding[r]):
-                    subj, base = oracle.grounding[r][k]
                 if oracle.actions is not None and k < len(oracle.actions[r]):
                     action = oracle.actions[r][k]
+                legal = torch.from_numpy(legal_pairs(on[i], action, n_obj))
+                scores = pair[j].masked_fill(~legal, float("-inf"))
+                if not bool(torch.isfinite(scores).any()):
+                    scores = pair[j]  # nothing legal: the best pair regardless
+                subj, base = divmod(int(scores.reshape(-1).argmax()), n_obj)
+                if oracle.grounding is not None and k < len(oracle.grounding[r]):
+                    subj, base = oracle.grounding[r][k]
+                on[i][subj] = base if action == TOP else -1
                 state = data.states[r]
                 centres[i] = move(state, centres[i][None], np.array([subj]), np.array([base]),
                                   np.array([action]), rule)[0]

@@ -233,3 +233,22 @@ def test_action_rule_fit_recovers_the_rule_that_moved_the_boxes(smoke_test: Path
     assert old == ActionRule(0.3, (0.4, 0.4, 0.0, 0.0, 0.0), (0.8, 0.8, 0.0, 0.0, 0.0))
     assert ActionRule.from_values(fitted.values()) == fitted
     assert ActionRule.from_dict(json.loads(json.dumps(fitted.to_dict()))) == fitted
+
+
+def test_decoder_keeps_to_the_stacks_the_dsl_allows() -> None:
+    """After "0 on 1": 1 cannot be picked up, nothing goes onto 1 or (for 0) onto its own
+    support; beside moves may still name 1. A stack of three takes nothing more."""
+    from nsrmp_bench.reference_model.program.inference import legal_pairs
+
+    top, left = 0, 1
+    fresh = legal_pairs([-1, -1, -1], top, 3)
+    assert fresh.tolist() == (~np.eye(3, dtype=bool)).tolist()
+    after = legal_pairs([1, -1, -1, -1], top, 4)
+    assert not after[1].any()  # subject covered
+    assert not after[:, 1].any()  # reference covered
+    assert after[0, 2] and after[2, 0] and after[0, 3]
+    beside = legal_pairs([1, -1, -1, -1], left, 4)
+    assert beside[0, 1] and beside[2, 1] and not beside[1].any()
+    full = legal_pairs([1, 2, -1, -1], top, 4)
+    assert not full[3, 0] and full[0, 3]
+    assert int(full.sum()) == 1
