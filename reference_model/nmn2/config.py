@@ -23,4 +23,5 @@ class NMN2Config(ModelConfig):
     epochs_joint: int = 3
     batch_size: int = 32
     lr: float = 2e-3  # nmn-v1's; at NSRM v2's 1e-2 it stayed at chance for 9 epochs
+    joint_lr_scale: float = 0.5  # the joint stage's learning rate, times lr
     threads: int = 2

@@ -16,10 +16,13 @@ class NSRM2Config(ModelConfig):
     concept_dim: int = 32
     word_dim: int = 32
     hidden: int = 64
+    ordered_roles: bool = True  # a reference reads head, relation, anchor in that order
+    previous_scale: float = 1.0  # the words' affinity for the previously moved object, times
     # stages (see reference_model/program/training.py)
     epochs_warmup: int = 2  # first stage: see StepModel.warmup_parameters
     epochs_single: int = 14  # one-step programs on episodes where one box changed
-    epochs_joint: int = 3  # every episode: splits and one- or two-step programs
+    epochs_joint: int = 5  # every episode: splits and one- or two-step programs
     batch_size: int = 32
     lr: float = 1e-2
+    joint_lr_scale: float = 0.5  # the joint stage's learning rate, times lr
     threads: int = 2

@@ -13,7 +13,11 @@ and the base its head, its relation or its relation's anchor; and a probability 
 speaks of the action. A reference's
 head filter is the
 role-weighted conjunction of its head words' concepts; a relational reference scores each
-object by the relation to an anchor chosen by the anchor words' conjunction. Relations
+object by the relation to an anchor chosen by the anchor words' conjunction. With
+``ordered_roles`` (the shipped setting) a reference reads in the grammar's order, head
+words before its relation word and anchor words after it: a word's head weight is scaled
+by the probability that no relation word of its reference came before it (the most
+probable one so far), its anchor weight by the probability that one did. Relations
 are read on the centres the step is given: the world as the previous steps left it (D5).
 The role marginals are expectations of a linear score, so training and inference read
 the same parse (the argmax role of each token at inference is not needed: the score is
@@ -90,16 +94,25 @@ class ConceptStepModel(StepModel):
              previous: Tensor, mask: Tensor) -> StepOutput:
         # filter[r, t, n]: log-probability that word t's concept holds of object n
         logit = torch.einsum("rtd,rnd->rtn", self.concept(tokens), feats)
-        logit = logit + self.concept_bias(tokens) + self.previous(tokens) * previous[:, None]
+        logit = (logit + self.concept_bias(tokens)
+                 + self.cfg.previous_scale * self.previous(tokens) * previous[:, None])
         log_filter = F.logsigmoid(logit)
         offsets = (centres[:, :, None] - centres[:, None]) / _OFFSET_SCALE  # (R, N, N, 3)
         eye = torch.eye(mask.shape[1], dtype=torch.bool, device=mask.device)
         others = mask[:, None, :] & ~eye[None]
         out = []
         for head, rel, anchor in _REFS:
-            score = torch.einsum("rt,rtn->rn", code[..., head], log_filter)
+            head_w, anchor_w = code[..., head], code[..., anchor]
+            if self.cfg.ordered_roles:
+                # a reference reads head, then relation, then anchor: a word is its head
+                # as far as no relation word came before it, its anchor as far as one did
+                # (the most probable relation word so far: a sum of the warm-up's uniform
+                # roles would reach 1 within a few tokens and silence every later word)
+                before = F.pad(torch.cummax(code[..., rel], -1).values[..., :-1], (1, 0))
+                head_w, anchor_w = head_w * (1.0 - before), anchor_w * before
+            score = torch.einsum("rt,rtn->rn", head_w, log_filter)
             anchor_lp = _masked_log_softmax(
-                torch.einsum("rt,rtn->rn", code[..., anchor], log_filter), mask)
+                torch.einsum("rt,rtn->rn", anchor_w, log_filter), mask)
             weights = torch.einsum("rt,rtk->rk", code[..., rel], self.relation(tokens))
             bias = torch.einsum("rt,rtk->rk", code[..., rel], self.relation_bias(tokens))
             pair = F.logsigmoid(torch.einsum("rijk,rk->rij", offsets, weights) + bias[..., None])

@@ -60,7 +60,8 @@ class ProgramModelBase(ProgramPredictionModel):
     supervision = SUPERVISION
     inputs = INPUTS
     tiny_overrides: ClassVar[dict[str, object]] = {
-        "epochs_warmup": 3, "epochs_single": 1, "epochs_joint": 1, "batch_size": 8}
+        "epochs_warmup": 3, "epochs_single": 1, "epochs_joint": 1, "batch_size": 8,
+        "threads": 1}
     model: ProgramModel
 
     @classmethod
@@ -123,7 +124,8 @@ class ProgramModelBase(ProgramPredictionModel):
                   lambda: list(model.step.parameters()), single, float(config.lr),
                   int(config.batch_size)),
             Stage("joint", int(config.epochs_joint), joint_rows,
-                  lambda: list(model.parameters()), joint, float(config.lr) / 2,
+                  lambda: list(model.parameters()), joint,
+                  float(config.lr) * float(config.joint_lr_scale),
                   int(config.batch_size), uses_splitter=True),
         ]
         gold = [[tuple(int(x) for x in row) for row in it["targets"]["grounded"].tolist()]
