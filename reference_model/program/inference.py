@@ -83,7 +83,8 @@ class Decoded:
 
 
 def _cuts(splitter: Splitter, tokens: list[list[int]]) -> list[list[int]]:
-    """As many cuts as the splitter's boundary probabilities add up to (rounded), each at
+    """As many cuts as the splitter's boundary probabilities say (:meth:`Splitter.boundaries`),
+    each at
     the most probable token left once the ``WINDOW`` tokens either side of the cuts
     already made are set aside (its teacher spreads a boundary over the few places where
     the steps read the same)."""
@@ -91,7 +92,7 @@ def _cuts(splitter: Splitter, tokens: list[list[int]]) -> list[list[int]]:
     out = []
     for row, tok in zip(probs, tokens, strict=True):
         p = row[: len(tok)].clone()
-        k = min(round(float(p.sum())), MAX_STEPS - 1)
+        k = min(splitter.boundaries(float(p.sum())), MAX_STEPS - 1)
         cuts: list[int] = []
         while len(cuts) < k and float(p.max()) > 0:
             t = int(p.argmax())

@@ -4,6 +4,8 @@ the interface of a step model (what NSRM and NMN+ each define)."""
 from __future__ import annotations
 
 from abc import ABCMeta, abstractmethod
+from collections.abc import Mapping
+from typing import Any
 
 import torch
 from torch import Tensor, nn
@@ -63,13 +65,26 @@ class TokenEncoder(nn.Module):
 
 class Splitter(nn.Module):
     """Where an instruction breaks into steps: for each token t >= 1, the log-odds that a
-    new step starts at it, read from the whole instruction."""
+    new step starts at it, read from the whole instruction.
+
+    ``calibration`` (a, b): an instruction whose boundary probabilities add up to ``s``
+    has ``round((s - b) / a)`` boundaries. Its teacher spreads each boundary's probability
+    over a few places and never quite commits to it, so the sum is less than the count;
+    training fits (a, b) (:func:`~.training.fit_calibration`). (1, 0) rounds the sum."""
+
+    calibration: Tensor
 
     def __init__(self, vocab_size: int, dim: int = 48) -> None:
         super().__init__()
         self.encoder = TokenEncoder(vocab_size, dim)
         self.out = nn.Linear(dim, 1)
         nn.init.constant_(self.out.bias, -4.0)  # untrained, it cuts nowhere
+        self.register_buffer("calibration", torch.tensor([1.0, 0.0]))
+
+    def boundaries(self, total: float) -> int:
+        """How many boundaries an instruction has whose probabilities add up to ``total``."""
+        a, b = (float(v) for v in self.calibration)
+        return max(round((total - b) / a), 0)
 
     def forward(self, tokens: Tensor) -> Tensor:
         """Boundary logits (B, T) of PAD-padded tokens (B, T); position 0 and padding are
@@ -116,6 +131,14 @@ class ProgramModel(nn.Module):
         self.step = step
         self.splitter = splitter
         self.register_buffer("rule_values", torch.tensor(ActionRule().values()))
+
+    def load_state_dict(self, state_dict: Mapping[str, Any], strict: bool = True,
+                        assign: bool = False) -> Any:
+        """As nn.Module's; a checkpoint from before the splitter's calibration loads with
+        (1, 0), the rounded sum it was trained and selected with."""
+        if "splitter.calibration" not in state_dict:
+            state_dict = {**state_dict, "splitter.calibration": torch.tensor([1.0, 0.0])}
+        return super().load_state_dict(state_dict, strict, assign)
 
     @property
     def rule(self) -> ActionRule:

@@ -40,7 +40,11 @@ from nsrmp_bench.reference_model.program.inference import (
 )
 from nsrmp_bench.reference_model.program.modules import ProgramModel, Splitter, StepModel
 from nsrmp_bench.reference_model.program.scene3d import ActionRule
-from nsrmp_bench.reference_model.program.training import joint_loss, single_loss
+from nsrmp_bench.reference_model.program.training import (
+    fit_calibration,
+    joint_loss,
+    single_loss,
+)
 from nsrmp_bench.reference_model.tokens import Vocabulary
 from nsrmp_bench.reference_model.training import Stage
 from nsrmp_bench.scoring.submission import Prediction
@@ -52,6 +56,7 @@ SUPERVISION = (
     "rule (no gold program, no lexed form, no template id, no reference labels, no step "
     "counts or categories)")
 INPUTS = "instruction text, initial RGB, initial depth, initial (gold) boxes, the camera"
+CALIBRATION_EPISODES = 512  # training episodes the splitter's calibration is fitted on
 
 
 class ProgramModelBase(ProgramPredictionModel):
@@ -131,7 +136,11 @@ class ProgramModelBase(ProgramPredictionModel):
         gold = [[tuple(int(x) for x in row) for row in it["targets"]["grounded"].tolist()]
                 for it in val_items]  # for the log's figures only
 
+        calibration_rows = joint_rows[:CALIBRATION_EPISODES].tolist()
+
         def validate(stage: Stage) -> tuple[float, dict[str, float]]:
+            if stage.uses_splitter:
+                fit_calibration(model.step, model.splitter, train, calibration_rows)
             decoded = decode(model.step, model.splitter, val, model.rule)
             return decoded_iou_m(val, decoded), validation_figures(val, decoded, gold)
 

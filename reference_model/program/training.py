@@ -244,3 +244,27 @@ def joint_loss(model: StepModel, splitter: Splitter, data: ProgramData,
     split_loss = torch.nn.functional.binary_cross_entropy_with_logits(
         logits[valid], target[valid].clamp(0.0, 1.0))
     return step_loss + split_loss
+
+
+@torch.no_grad()
+def fit_calibration(model: StepModel, splitter: Splitter, data: ProgramData,
+                    rows: Sequence[int]) -> None:
+    """Fit ``splitter.calibration`` on training episodes ``rows``: least squares of the
+    splitter's summed boundary probabilities on the teacher's most probable number of
+    boundaries (0 or 1: the cut the consistent programs favour, from the boxes alone).
+    Left as it is where the fit is degenerate (fewer than ten episodes of either count,
+    or a slope below 0.1)."""
+    splitter.eval()
+    posts = teacher_cuts(model, data, rows)
+    kept = [(r, max(p, key=lambda x: x[1])[0] > 0) for r, p in zip(rows, posts, strict=True)
+            if p]
+    if sum(c for _, c in kept) < 10 or sum(not c for _, c in kept) < 10:
+        return
+    tokens = [data.tokens[r] for r, _ in kept]
+    probs = torch.sigmoid(splitter(pad_tokens(tokens)))
+    total = torch.stack([probs[i, : len(t)].sum() for i, t in enumerate(tokens)]).double()
+    count = torch.tensor([float(c) for _, c in kept], dtype=torch.float64)
+    x = torch.stack([count, torch.ones_like(count)], 1)
+    a, b = torch.linalg.lstsq(x, total[:, None]).solution[:, 0].tolist()
+    if a >= 0.1:
+        splitter.calibration = torch.tensor([a, b])
