@@ -87,6 +87,11 @@ for _entry in (
     ModelEntry("dense5x-v1", Kind.DENSE, "dense baseline, not CLIPort, on 5x the data "
                "(dense5x-v2/train, selected on paper-v2/val)", f"{_HERE}.dense:Dense5xPredictor",
                "not CLIPort, 5x data"),
+    ModelEntry("dense-v2", Kind.DENSE, "dense baseline v2, not CLIPort: dense-v1's "
+               "language-conditioned pick stream and a Transporter transport for the place "
+               "(pick-centred crop features cross-correlated with the scene's), trained on "
+               "paper-v2/train's single-step episodes", f"{_HERE}.dense:DenseV2Predictor",
+               "not CLIPort"),
     ModelEntry("detector-v1", Kind.DETECTOR, "CenterNet-style object detector (RGB and height "
                "above the table), from scratch; writes detections, not predictions",
                f"{_HERE}.detector:DetectorPredictor"),

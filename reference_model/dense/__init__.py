@@ -1,9 +1,11 @@
 """The dense baseline (not CLIPort): a from-scratch, Transporter-style two-stream FCN that
 reads the initial RGB-D and the instruction and predicts a pick and a place heatmap.
 
-Two registered ids share this module: ``dense-v1`` (trained on the single-step episodes
-of paper-v2/train) and ``dense5x-v1`` (on dense5x-v2/train, five times as many, selected
-on paper-v2/val). See ``MODEL_CARD.md`` beside this file.
+Three registered ids share this module: ``dense-v1`` (trained on the single-step episodes
+of paper-v2/train), ``dense5x-v1`` (on dense5x-v2/train, five times as many, selected
+on paper-v2/val) and ``dense-v2`` (v1's pick stream with a Transporter transport for the
+place: :mod:`.transport`; the same data as ``dense-v1``). See ``MODEL_CARD.md`` beside
+this file.
 """
 
 from __future__ import annotations
@@ -21,22 +23,24 @@ from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.reference_model.base import PredictionModel, TrainingPlan
 from nsrmp_bench.reference_model.contract import Kind, ModelConfig
-from nsrmp_bench.reference_model.dense.config import Dense5xConfig, DenseConfig
+from nsrmp_bench.reference_model.dense.config import Dense5xConfig, DenseConfig, DenseV2Config
 from nsrmp_bench.reference_model.dense.inference import Inferred, infer
 from nsrmp_bench.reference_model.dense.inputs import DenseInputs, encode_items, encode_part
-from nsrmp_bench.reference_model.dense.model import DenseNet
+from nsrmp_bench.reference_model.dense.model import DenseNet, PickPlaceNet
+from nsrmp_bench.reference_model.dense.transport import TransportNet
 from nsrmp_bench.reference_model.training import Stage
 from nsrmp_bench.scoring.submission import Prediction
 
-__all__ = ["MODEL_ID", "MODEL_ID_5X", "Dense5xConfig", "Dense5xPredictor", "DenseConfig",
-           "DensePredictor", "val_accuracy"]
+__all__ = ["MODEL_ID", "MODEL_ID_5X", "MODEL_ID_V2", "Dense5xConfig", "Dense5xPredictor",
+           "DenseConfig", "DensePredictor", "DenseV2Config", "DenseV2Predictor", "val_accuracy"]
 
 MODEL_ID = "dense-v1"
 MODEL_ID_5X = "dense5x-v1"
+MODEL_ID_V2 = "dense-v2"
 LABEL = "not CLIPort"
 
 
-def val_accuracy(model: DenseNet, enc: DenseInputs) -> tuple[float, float]:
+def val_accuracy(model: PickPlaceNet, enc: DenseInputs) -> tuple[float, float]:
     """(identification, placement) on encoded single-step episodes with targets: the
     picked object is the moved one; the place lies in its box after the step.
 
@@ -51,11 +55,36 @@ def val_accuracy(model: DenseNet, enc: DenseInputs) -> tuple[float, float]:
     return float(ident.float().mean()), float(inside.mean())
 
 
-def _loss(model: DenseNet, enc: DenseInputs, rows: Tensor) -> Tensor:
+def shifted(image: Tensor, pick: Tensor, place: Tensor, grid: tuple[int, int],
+            shift: int) -> tuple[Tensor, Tensor, Tensor]:
+    """Augmentation: the batch's images translated by a random whole number of heatmap
+    cells (at most ``shift`` each way; zeros come in) and the target cells with them;
+    rows whose pick or place would leave the grid keep their own image."""
+    h, w = grid
+    dy, dx = (int(v) for v in torch.randint(-shift, shift + 1, (2,)))
+    py, px, qy, qx = pick // w + dy, pick % w + dx, place // w + dy, place % w + dx
+    ok = (py >= 0) & (py < h) & (px >= 0) & (px < w) & (qy >= 0) & (qy < h) & (qx >= 0) & (qx < w)
+    moved = torch.roll(image, (2 * dy, 2 * dx), dims=(2, 3))
+    if dy > 0:
+        moved[:, :, : 2 * dy] = 0
+    elif dy < 0:
+        moved[:, :, 2 * dy:] = 0
+    if dx > 0:
+        moved[:, :, :, : 2 * dx] = 0
+    elif dx < 0:
+        moved[:, :, :, 2 * dx:] = 0
+    keep = ok[:, None, None, None]
+    return (torch.where(keep, moved, image), torch.where(ok, py * w + px, pick),
+            torch.where(ok, qy * w + qx, place))
+
+
+def _loss(model: PickPlaceNet, enc: DenseInputs, rows: Tensor, shift: int = 0) -> Tensor:
     assert enc.pick is not None and enc.place is not None
-    x = model.image_input(enc.image(rows))
+    image, pick, place = enc.image(rows), enc.pick[rows], enc.place[rows]
+    if shift:
+        image, pick, place = shifted(image, pick, place, enc.grid, shift)
+    x = model.image_input(image)
     text = model.text(enc.tokens_of(rows))
-    pick, place = enc.pick[rows], enc.place[rows]
     return (F.cross_entropy(model.pick_logits(x, text), pick)
             + F.cross_entropy(model.place_logits(x, text, pick), place))
 
@@ -80,11 +109,11 @@ class DensePredictor(PredictionModel):
         "epochs": 3, "batch_size": 4, "width": 8, "word_dim": 16, "text_hidden": 16,
         "val": "val", "val_limit": 8, "read_workers": 1}
     config: DenseConfig
-    model: DenseNet
+    model: PickPlaceNet
 
     @classmethod
     def build_network(cls, config: DenseConfig, vocab_size: int,
-                      state: Mapping[str, Tensor]) -> DenseNet:
+                      state: Mapping[str, Tensor]) -> PickPlaceNet:
         return DenseNet(vocab_size, config)
 
     @classmethod
@@ -107,7 +136,7 @@ class DensePredictor(PredictionModel):
         val, _ = encode_part(val_dir, vocab, cfg.scale, single_step=True, targets=True,
                              limit=cfg.val_limit)
         read_seconds = time.perf_counter() - t0
-        model = DenseNet(len(vocab), cfg)
+        model = cls.build_network(cfg, len(vocab), {})
         last: dict[str, float] = {}
 
         def validate(stage: Stage) -> float:
@@ -115,16 +144,20 @@ class DensePredictor(PredictionModel):
             last.update(identification=ident, placement=place)
             return (ident + place) / 2
 
-        stage = Stage("dense", cfg.epochs, torch.arange(len(train)),
-                      lambda: list(model.parameters()), lambda rows: _loss(model, train, rows),
-                      cfg.lr, cfg.batch_size, uses_splitter=True)
         return TrainingPlan(
-            network=model, stages=[stage], validate=validate,
+            network=model, stages=cls.stages(cfg, model, train), validate=validate,
             training_data=(f"{len(train)} single-step episodes of {train_dir}; selection on "
                            f"the first {len(val)} single-step episodes of {val_dir.name} "
                            f"({val_dir.parent.name})"),
             vocab=vocab.to_list(), score_name="val_id_pl", read_seconds=read_seconds,
             checkpoint_extra=lambda: {"val": {k: round(v, 4) for k, v in last.items()}})
+
+    @classmethod
+    def stages(cls, cfg: DenseConfig, model: PickPlaceNet, train: DenseInputs) -> list[Stage]:
+        """The curriculum: one stage of ``cfg.epochs`` over the training episodes."""
+        return [Stage("dense", cfg.epochs, torch.arange(len(train)),
+                      lambda: list(model.parameters()), lambda rows: _loss(model, train, rows),
+                      cfg.lr, cfg.batch_size, uses_splitter=True)]
 
     def infer(self, items: Sequence[dict[str, Any]]) -> tuple[DenseInputs, Inferred]:
         """Encode the items' inputs and run the model."""
@@ -151,3 +184,39 @@ class Dense5xPredictor(DensePredictor):
     model_id = MODEL_ID_5X
     label = "not CLIPort, 5x data"
     config_cls = Dense5xConfig
+
+
+class DenseV2Predictor(DensePredictor):
+    """``dense-v2``: ``dense-v1``'s data, inputs, supervision, loss and inference, with
+    the place predicted by a Transporter transport (:class:`.transport.TransportNet`)."""
+
+    model_id = MODEL_ID_V2
+    label = LABEL
+    config_cls = DenseV2Config
+    data_hint = "e.g. data/paper-v2"
+    tiny_overrides: ClassVar[dict[str, object]] = {
+        **DensePredictor.tiny_overrides, "decay_epochs": 1, "key_dim": 4, "crop": 3}
+
+    @classmethod
+    def build_network(cls, config: DenseConfig, vocab_size: int,
+                      state: Mapping[str, Tensor]) -> PickPlaceNet:
+        assert isinstance(config, DenseV2Config)
+        return TransportNet(vocab_size, config)
+
+    @classmethod
+    def stages(cls, cfg: DenseConfig, model: PickPlaceNet, train: DenseInputs) -> list[Stage]:
+        """``cfg.epochs`` in all: the last ``decay_epochs`` of them a second stage at
+        ``lr * decay`` (a fresh Adam), both selecting on validation."""
+        assert isinstance(cfg, DenseV2Config)
+        rows = torch.arange(len(train))
+
+        def stage(name: str, epochs: int, lr: float) -> Stage:
+            return Stage(name, epochs, rows, lambda: list(model.parameters()),
+                         lambda r: _loss(model, train, r, cfg.shift), lr, cfg.batch_size,
+                         uses_splitter=True)
+
+        first = cfg.epochs - cfg.decay_epochs
+        out = [stage("dense", first, cfg.lr)] if first > 0 else []
+        if cfg.decay_epochs:
+            out.append(stage("dense-decay", cfg.decay_epochs, cfg.lr * cfg.decay))
+        return out

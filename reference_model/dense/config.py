@@ -1,5 +1,6 @@
 """The dense baseline's configuration: sizes, image scale, optimisation and where its
-validation part lies; one frozen dataclass per registered id (``dense-v1``, ``dense5x-v1``)."""
+validation part lies; one frozen dataclass per registered id (``dense-v1``, ``dense5x-v1``,
+``dense-v2``)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from dataclasses import dataclass
 
 from nsrmp_bench.reference_model.contract import ModelConfig
 
-__all__ = ["Dense5xConfig", "DenseConfig"]
+__all__ = ["Dense5xConfig", "DenseConfig", "DenseV2Config"]
 
 
 @dataclass(frozen=True)
@@ -37,3 +38,31 @@ class Dense5xConfig(DenseConfig):
 
     epochs: int = 1
     val: str = "../paper-v2/val"
+
+
+@dataclass(frozen=True)
+class DenseV2Config(DenseConfig):
+    """``dense-v2``: v1's pick stream, and a Transporter transport for the place: the
+    features of a crop of the input around the pick (``crop`` heatmap cells a side, at
+    ``rotations`` angles) cross-correlated with the scene's key features, both
+    language-conditioned. ``pick_sigma`` is not used (the pick enters as the crop)."""
+
+    epochs: int = 14
+    decay_epochs: int = 4  # the last this many of ``epochs`` run at ``lr * decay``
+    decay: float = 0.1
+    shift: int = 0  # augmentation: translate each batch by up to this many cells each way
+    threads: int = 1
+    read_workers: int = 1
+    key_dim: int = 16  # channels of the key and query features that are correlated
+    crop: int = 9  # the query crop's side, in heatmap cells (odd)
+    rotations: int = 1  # angles the crop is rotated over (the place marginalises them)
+
+    def validate(self) -> None:
+        super().validate()
+        self.require(self.key_dim > 0, "key_dim", "a positive number of channels")
+        self.require(self.crop > 0 and self.crop % 2 == 1, "crop", "a positive odd number")
+        self.require(self.rotations > 0, "rotations", "at least 1")
+        self.require(0 <= self.decay_epochs <= self.epochs, "decay_epochs",
+                     "between 0 and epochs")
+        self.require(0 < self.decay <= 1, "decay", "in (0, 1]")
+        self.require(self.shift >= 0, "shift", "at least 0")

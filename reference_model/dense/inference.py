@@ -17,7 +17,7 @@ import numpy as np
 import torch
 
 from nsrmp_bench.reference_model.dense.inputs import DenseInputs, cell_centres, cells_of
-from nsrmp_bench.reference_model.dense.model import DenseNet
+from nsrmp_bench.reference_model.dense.model import PickPlaceNet
 
 __all__ = ["Inferred", "infer", "moved_boxes", "picked_object"]
 
@@ -57,7 +57,7 @@ def moved_boxes(boxes: np.ndarray[Any, Any], subject: int, place: np.ndarray[Any
 
 
 @torch.no_grad()
-def infer(model: DenseNet, enc: DenseInputs, batch_size: int = 64) -> Inferred:
+def infer(model: PickPlaceNet, enc: DenseInputs, batch_size: int = 64) -> Inferred:
     """Pick, place and final boxes of every episode of ``enc`` (model in eval mode)."""
     model.eval()
     subjects: list[int] = []

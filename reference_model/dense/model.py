@@ -23,7 +23,8 @@ from torch import Tensor, nn
 from nsrmp_bench.reference_model.dense.config import DenseConfig
 from nsrmp_bench.reference_model.tokens import PAD
 
-__all__ = ["DenseNet", "FiLMConv", "Stream", "TextEncoder", "coordinates", "pick_channel"]
+__all__ = ["DenseNet", "FiLMConv", "PickPlaceNet", "Stream", "TextEncoder", "coordinates",
+           "pick_channel"]
 
 IMAGE_CHANNELS = 4  # RGB and depth
 
@@ -65,9 +66,10 @@ class Stream(nn.Module):
     """A U-shaped FCN: (B, c_in, H, W) and text -> logits (B, H/2, W/2).
 
     A stride-2 stem (H/2), a stride-2 level (H/4) with two dilated layers for context,
-    back up to H/2 with the stem's features added, and a 1x1 head."""
+    back up to H/2 with the stem's features added, and a 1x1 head (``c_out`` channels:
+    :meth:`features` gives them all, ``forward`` the first)."""
 
-    def __init__(self, c_in: int, width: int, text_dim: int) -> None:
+    def __init__(self, c_in: int, width: int, text_dim: int, c_out: int = 1) -> None:
         super().__init__()
         w2 = 2 * width
         self.stem = FiLMConv(c_in, width, text_dim, stride=2)
@@ -76,13 +78,18 @@ class Stream(nn.Module):
         self.ctx2 = FiLMConv(w2, w2, text_dim, dilation=4)
         self.lateral = nn.Conv2d(w2, width, 1)
         self.out = FiLMConv(width, width, text_dim)
-        self.head = nn.Conv2d(width, 1, 1)
+        self.head = nn.Conv2d(width, c_out, 1)
 
-    def forward(self, x: Tensor, text: Tensor) -> Tensor:
+    def features(self, x: Tensor, text: Tensor) -> Tensor:
+        """(B, c_out, H/2, W/2): the head's output."""
         skip = self.stem(x, text)
         h = self.ctx2(self.ctx1(self.down(skip, text), text), text)
         up = F.interpolate(self.lateral(h), size=skip.shape[-2:], mode="nearest")
-        out: Tensor = self.head(self.out(skip + up, text))[:, 0]
+        out: Tensor = self.head(self.out(skip + up, text))
+        return out
+
+    def forward(self, x: Tensor, text: Tensor) -> Tensor:
+        out: Tensor = self.features(x, text)[:, 0]
         return out
 
 
@@ -102,16 +109,13 @@ def pick_channel(cells: Tensor, height: int, width: int, sigma: float) -> Tensor
     return torch.exp(-d2 / (2 * sigma * sigma))[:, None]
 
 
-class DenseNet(nn.Module):
-    """Instruction and RGB-D -> pick and place logits over the image's cells."""
+class PickPlaceNet(nn.Module):
+    """What inference and the loss use of a dense network: a text encoder, the stream
+    input, pick logits and place logits given a pick (``dense-v1``'s :class:`DenseNet`,
+    ``dense-v2``'s transport network)."""
 
-    def __init__(self, vocab_size: int, cfg: DenseConfig) -> None:
-        super().__init__()
-        self.cfg = cfg
-        text_dim = 2 * cfg.text_hidden
-        self.text = TextEncoder(vocab_size, cfg.word_dim, cfg.text_hidden)
-        self.pick = Stream(IMAGE_CHANNELS + 2, cfg.width, text_dim)
-        self.place = Stream(IMAGE_CHANNELS + 3, cfg.width, text_dim)
+    text: TextEncoder
+    pick: Stream
 
     def image_input(self, image: Tensor) -> Tensor:
         """The stream input: the image (B, 4, H, W) with coordinate channels."""
@@ -122,6 +126,22 @@ class DenseNet(nn.Module):
         """(B, H/2 * W/2) pick logits from :meth:`image_input` and the text vector."""
         logits: Tensor = self.pick(x, text)
         return logits.flatten(1)
+
+    def place_logits(self, x: Tensor, text: Tensor, pick_cells: Tensor) -> Tensor:
+        """(B, H/2 * W/2) place logits given the pick cell (on that grid) of each row."""
+        raise NotImplementedError
+
+
+class DenseNet(PickPlaceNet):
+    """Instruction and RGB-D -> pick and place logits over the image's cells."""
+
+    def __init__(self, vocab_size: int, cfg: DenseConfig) -> None:
+        super().__init__()
+        self.cfg = cfg
+        text_dim = 2 * cfg.text_hidden
+        self.text = TextEncoder(vocab_size, cfg.word_dim, cfg.text_hidden)
+        self.pick = Stream(IMAGE_CHANNELS + 2, cfg.width, text_dim)
+        self.place = Stream(IMAGE_CHANNELS + 3, cfg.width, text_dim)
 
     def place_logits(self, x: Tensor, text: Tensor, pick_cells: Tensor) -> Tensor:
         """(B, H/2 * W/2) place logits given the pick cell (on that grid) of each row."""

@@ -38,7 +38,7 @@ def tiny_run(tiny_paper: Path, tmp_path_factory: pytest.TempPathFactory) -> Path
     root = tmp_path_factory.mktemp("dense-data")
     (root / "train").symlink_to(tiny_paper / "train", target_is_directory=True)
     out = tmp_path_factory.mktemp("dense-run")
-    assert main(["train", "dense", "--data", str(root), "--out", str(out), "--quiet",
+    assert main(["train", "dense-v1", "--data", str(root), "--out", str(out), "--quiet",
                  "--set", "val=train", *TINY]) == 0
     return out
 
@@ -49,7 +49,7 @@ def test_tiny_training_learns_to_pick(tiny_run: Path, tiny_paper: Path,
     assert log[-1]["loss"] < 0.8 * log[0]["loss"], log
     pred, rand = tmp_path / "dense.jsonl", tmp_path / "random.jsonl"
     train = tiny_paper / "train"
-    assert main(["predict", "dense", "--data", str(train), "--out", str(pred),
+    assert main(["predict", "dense-v1", "--data", str(train), "--out", str(pred),
                  "--checkpoint", str(tiny_run / "best.pt"), "--quiet"]) == 0
     assert main(["check-submission", str(pred), "--split", "paper-v2/train", "--data",
                  str(train)]) == 0
@@ -66,7 +66,7 @@ def test_same_seed_same_checkpoint_bytes(tiny_paper: Path, tmp_path: Path) -> No
     runs = []
     for name in ("a", "b"):
         out = tmp_path / name
-        assert main(["train", "dense", "--data", str(tiny_paper), "--out", str(out), "--quiet",
+        assert main(["train", "dense-v1", "--data", str(tiny_paper), "--out", str(out), "--quiet",
                      "--set", "epochs=1", "--set", "width=8", "--set", "val_limit=8",
                      "--set", "read_workers=1"]) == 0
         runs.append((out / "best.pt").read_bytes())
@@ -92,7 +92,7 @@ def test_model_never_reads_targets(smoke_test: Path) -> None:
     ds = EpisodeDataset(smoke_test, transform=hide)
     items = [ds[i] for i in range(len(ds))]
     camera = ds.collection.episode(0, images=False).rendering.camera
-    preds = list(load_model("dense").predict(items, camera))
+    preds = list(load_model("dense-v1").predict(items, camera))
     assert [p.id for p in preds] == ds.collection.ids
     assert all(p.pick is not None and p.place is not None for p in preds)
 
@@ -156,6 +156,6 @@ def test_bad_input_is_a_clear_error(tiny_paper: Path, tmp_path: Path,
     assert main(["train", "dense5x", "--data", str(tiny_paper), "--out",
                  str(tmp_path / "r")]) == 2
     assert "is not a finished part; pass --set val=PATH" in capsys.readouterr().err
-    assert main(["train", "dense", "--data", str(tiny_paper), "--out", str(tmp_path / "r"),
+    assert main(["train", "dense-v1", "--data", str(tiny_paper), "--out", str(tmp_path / "r"),
                  "--set", "scale=7", "--set", "read_workers=1"]) == 2
     assert "not divisible by twice the scale 7" in capsys.readouterr().err
