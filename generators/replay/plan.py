@@ -209,20 +209,6 @@ def box_of(camera: Camera, obj: SceneObject, position: Vec,
     return out
 
 
-def _ray_plane(camera: Camera, pixel: Vec, z: float) -> F64 | None:
-    """Where the ray through ``pixel`` meets the plane ``z``; None if it never does."""
-    eye = np.asarray(camera.eye, dtype=np.float64)
-    far = camera.backproject(np.asarray(pixel, dtype=np.float64), np.asarray(1.0))
-    d = far - eye
-    if abs(d[2]) < 1e-12:
-        return None
-    t = (z - eye[2]) / d[2]
-    if t <= 0.0:
-        return None
-    out: F64 = eye + t * d
-    return out
-
-
 def fit_box_on_plane(camera: Camera, obj: SceneObject, orientation: Vec,
                      box: Vec, z: float) -> F64 | None:
     """The centre ``(3,)`` at height ``z`` whose projected amodal box has ``box``'s centre.
@@ -234,7 +220,7 @@ def fit_box_on_plane(camera: Camera, obj: SceneObject, orientation: Vec,
     b = np.asarray(box, dtype=np.float64)
     want = np.array([(b[0] + b[2]) / 2.0, (b[1] + b[3]) / 2.0])
     aim = want.copy()
-    point = _ray_plane(camera, aim, z)
+    point = camera.ray_at_height(aim, z)
     if point is None:
         return None
     for _ in range(_FIT_ITERATIONS):
@@ -244,7 +230,7 @@ def fit_box_on_plane(camera: Camera, obj: SceneObject, orientation: Vec,
         if float(np.max(np.abs(residual))) < 0.01:
             break
         aim = aim + residual
-        nxt = _ray_plane(camera, aim, z)
+        nxt = camera.ray_at_height(aim, z)
         if nxt is None:
             break
         point = nxt

@@ -16,16 +16,10 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
+
+from nsrmp_bench.cli.export_args import add_arguments
 
 __all__ = ["add_arguments", "run"]
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of the verb."""
-    parser.add_argument("data", type=Path, help="a generated split directory (or one part)")
-    parser.add_argument("--out", type=Path, required=True, help="a new or empty folder")
-    parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
 
 def run(args: argparse.Namespace) -> int:

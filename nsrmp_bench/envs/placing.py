@@ -22,7 +22,7 @@ from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.scene import Pose, SceneObject, State
 from nsrmp_bench.vocabulary import TABLE_TOP_Z
 
-__all__ = ["check_point", "picked_object", "place_target", "ray_at_height"]
+__all__ = ["check_point", "picked_object", "place_target"]
 
 F64 = NDArray[np.float64]
 
@@ -55,20 +55,6 @@ def picked_object(segmentation: NDArray[np.int16], point: tuple[float, float]) -
     return None if index < 0 else index
 
 
-def ray_at_height(camera: Camera, point: tuple[float, float], z: float) -> F64 | None:
-    """Where the camera ray through pixel ``point`` meets the plane at height ``z``."""
-    eye = np.asarray(camera.eye, dtype=np.float64)
-    far = camera.backproject(np.asarray(point, dtype=np.float64), np.asarray(1.0))
-    d = far - eye
-    if abs(d[2]) < 1e-12:
-        return None
-    t = (z - eye[2]) / d[2]
-    if t <= 0.0:
-        return None
-    out: F64 = eye + t * d
-    return out
-
-
 def _carried_by(objects: Sequence[SceneObject], state: State, subject: int) -> set[int]:
     """Objects resting on ``subject``, directly or through others."""
     out: set[int] = set()
@@ -93,7 +79,7 @@ def place_target(camera: Camera, objects: Sequence[SceneObject], state: State, s
         if j == subject or j in carried:
             continue
         top = pose.position[2] + obj.extents[2] / 2.0
-        cut = ray_at_height(camera, point, top + half)
+        cut = camera.ray_at_height(point, top + half)
         if cut is None:
             continue
         hx, hy, _ = footprint_half(obj, pose)
@@ -101,7 +87,7 @@ def place_target(camera: Camera, objects: Sequence[SceneObject], state: State, s
         if on and (best is None or top > best[0]):
             best = (top, cut, j)
     if best is None:
-        cut = ray_at_height(camera, point, TABLE_TOP_Z + half)
+        cut = camera.ray_at_height(point, TABLE_TOP_Z + half)
         if cut is None:
             return None
         best = (TABLE_TOP_Z, cut, -1)

@@ -160,6 +160,19 @@ class Camera:
         cam = np.stack([x, y, z], axis=-1)
         return cam @ self.rotation + np.asarray(self.eye, dtype=np.float64)
 
+    def ray_at_height(self, pixel: NDArray[Any] | tuple[float, float], z: float) -> F64 | None:
+        """Where the ray through ``pixel`` meets the horizontal plane at height ``z`` (world
+        metres); None when it never does in front of the camera."""
+        eye = np.asarray(self.eye, dtype=np.float64)
+        d = self.backproject(np.asarray(pixel, dtype=np.float64), np.asarray(1.0)) - eye
+        if abs(d[2]) < 1e-12:
+            return None
+        t = (z - eye[2]) / d[2]
+        if t <= 0.0:
+            return None
+        out: F64 = eye + t * d
+        return out
+
     def amodal_boxes(
         self,
         extents: NDArray[Any],

@@ -143,12 +143,12 @@ def fit_rule(states: Sequence[SceneState], finals: Sequence[NDArray[np.floating]
                 rows[True].append(top_features(state, one_s, one_b)[0])
                 want[True].append(eye[2] + t * ray[2] - base[2])
             else:
-                if abs(ray[2]) < 1e-12:
+                cut = state.camera.ray_at_height(uv[0], float(state.centres[s, 2]))
+                if cut is None:
                     continue
-                t = float((state.centres[s, 2] - eye[2]) / ray[2])
                 sign = -1.0 if a == LEFT else 1.0
                 rows[False].append(side_features(state, one_s, one_b)[0])
-                want[False].append(sign * (eye[0] + t * ray[0] - base[0]))
+                want[False].append(sign * (float(cut[0]) - base[0]))
         top = _robust_lstsq(rows[True], want[True], rule.top)
         side = _robust_lstsq(rows[False], want[False], rule.side)
         rule = ActionRule(rule.centre, top, side)
