@@ -149,6 +149,10 @@ class LearnedModel(ABC):
         _prepare_out(out, cfg, restart)
         threads: int = cfg.threads  # type: ignore[attr-defined]
         torch.set_num_threads(threads)
+        # same seed, same bytes with several threads too: ops whose parallel accumulation
+        # order varies (the backward of indexing with repeated indices) take their
+        # deterministic implementations
+        torch.use_deterministic_algorithms(True, warn_only=True)
         torch.manual_seed(seed)
         t0 = time.perf_counter()
         plan = cls.plan_training(data, cfg, seed)

@@ -57,11 +57,11 @@ class _RobotPlacingWorld:
     def __getattr__(self, name: str) -> Any:
         return getattr(self._world, name)
 
-    def begin(self, objects: Any) -> Any:
+    def begin(self, objects: Any, *, scenery_visuals: bool = True) -> Any:
         self._initial_done = False
         self.results = []
         self._t = 0.0
-        return self._world.begin(objects)
+        return self._world.begin(objects, scenery_visuals=scenery_visuals)
 
     def settle(self, *args: Any, **kwargs: Any) -> Any:
         out = self._world.settle(*args, **kwargs)

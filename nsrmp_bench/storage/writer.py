@@ -228,6 +228,8 @@ class ShardWriter:
     def _raise_error(self) -> None:
         if self._error is not None:
             msg = f"writing shard {self.file} failed: {self._error}"
+            if isinstance(self._error, InvalidArgument):  # bad input stays bad input
+                raise InvalidArgument(msg) from self._error
             raise RuntimeError(msg) from self._error
 
     def _write(self, episode: Episode, index: int) -> None:
