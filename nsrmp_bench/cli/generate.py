@@ -59,13 +59,14 @@ def run(args: argparse.Namespace) -> int:
     """Generate, then print each part's count, time, rate, rejections and root hash."""
     from nsrmp_bench._optional import require
 
-    require("pybullet")  # before any work, also of pool workers that would import it
-    from nsrmp_bench.generators import generate as gen
-
+    # the spec first: a bad value is named whatever is installed
     spec = load_split_file(args.spec) if args.spec is not None else resolve_split(args.split)
     parts = args.part or list(spec.parts)
     for part in parts:
         spec.part(part)  # unknown part: a clear error before any work
+    require("pybullet")  # before any work, also of pool workers that would import it
+    from nsrmp_bench.generators import generate as gen
+
     console = Console(stderr=True)
     with engine_from_args(args) as engine:
         return max((_generate(gen, spec, part, engine, args, console) for part in parts),
