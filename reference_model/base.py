@@ -25,6 +25,7 @@ import json
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
@@ -149,10 +150,13 @@ class LearnedModel(ABC):
         _prepare_out(out, cfg, restart)
         threads: int = cfg.threads  # type: ignore[attr-defined]
         torch.set_num_threads(threads)
-        # same seed, same bytes with several threads too: ops whose parallel accumulation
-        # order varies (the backward of indexing with repeated indices) take their
-        # deterministic implementations
-        torch.use_deterministic_algorithms(True, warn_only=True)
+        with _deterministic():
+            return cls._train(data, out, cfg, seed, threads, quiet)
+
+    @classmethod
+    def _train(cls, data: Path, out: Path, cfg: ModelConfig, seed: int, threads: int,
+               quiet: bool) -> Path:
+        """:meth:`train` once the data, the output folder and the threads are settled."""
         torch.manual_seed(seed)
         t0 = time.perf_counter()
         plan = cls.plan_training(data, cfg, seed)
@@ -181,6 +185,20 @@ class LearnedModel(ABC):
             config=cfg.to_dict())
         write_training_card(out / CARD, card)
         return best
+
+
+@contextmanager
+def _deterministic() -> Iterator[None]:
+    """Same seed, same bytes with several threads too: while training, ops whose parallel
+    accumulation order varies (the backward of indexing with repeated indices) take their
+    deterministic implementations; the process's setting is restored afterwards."""
+    before = torch.are_deterministic_algorithms_enabled()
+    warn = torch.is_deterministic_algorithms_warn_only_enabled()
+    torch.use_deterministic_algorithms(True, warn_only=True)
+    try:
+        yield
+    finally:
+        torch.use_deterministic_algorithms(before, warn_only=warn)
 
 
 def _prepare_out(out: Path, cfg: ModelConfig, restart: bool) -> None:

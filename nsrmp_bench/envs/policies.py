@@ -118,10 +118,10 @@ class NoopPolicy:
 NAMED_POLICIES: dict[str, Callable[[Any], Policy]] = {
     "oracle": OraclePolicy,
     "noop": lambda env: NoopPolicy(),
-    "nsrm": lambda env: ProgramModelPolicy(env, "nsrm-v2"),
+    "nsrm": lambda env: ProgramModelPolicy(env, "nsrm"),  # the registry's latest version
     "nsrm-v1": lambda env: ProgramModelPolicy(env, "nsrm-v1"),
     "nsrm-v2": lambda env: ProgramModelPolicy(env, "nsrm-v2"),
-    "nmn": lambda env: ProgramModelPolicy(env, "nmn-v2"),
+    "nmn": lambda env: ProgramModelPolicy(env, "nmn"),
     "nmn-v1": lambda env: ProgramModelPolicy(env, "nmn-v1"),
     "nmn-v2": lambda env: ProgramModelPolicy(env, "nmn-v2"),
 }

@@ -16,6 +16,8 @@ and scale 4.
 
 from __future__ import annotations
 
+from abc import ABCMeta, abstractmethod
+
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
@@ -109,7 +111,7 @@ def pick_channel(cells: Tensor, height: int, width: int, sigma: float) -> Tensor
     return torch.exp(-d2 / (2 * sigma * sigma))[:, None]
 
 
-class PickPlaceNet(nn.Module):
+class PickPlaceNet(nn.Module, metaclass=ABCMeta):
     """What inference and the loss use of a dense network: a text encoder, the stream
     input, pick logits and place logits given a pick (``dense-v1``'s :class:`DenseNet`,
     ``dense-v2``'s transport network)."""
@@ -127,9 +129,9 @@ class PickPlaceNet(nn.Module):
         logits: Tensor = self.pick(x, text)
         return logits.flatten(1)
 
+    @abstractmethod
     def place_logits(self, x: Tensor, text: Tensor, pick_cells: Tensor) -> Tensor:
         """(B, H/2 * W/2) place logits given the pick cell (on that grid) of each row."""
-        raise NotImplementedError
 
 
 class DenseNet(PickPlaceNet):

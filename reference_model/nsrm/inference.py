@@ -132,7 +132,6 @@ class ProgramPredictor(ProgramPredictionModel):
     (:meth:`~nsrmp_bench.reference_model.base.LearnedModel.build_network`), its curriculum
     (``plan_training``) and its inference (:meth:`run`)."""
 
-
     @abstractmethod
     def run(self, enc: Encoded) -> Inferred:
         """The network over encoded inputs."""

@@ -17,7 +17,6 @@ class NSRM2Config(ModelConfig):
     word_dim: int = 32
     hidden: int = 64
     ordered_roles: bool = True  # a reference reads head, relation, anchor in that order
-    previous_scale: float = 1.0  # the words' affinity for the previously moved object, times
     # stages (see reference_model/program/training.py)
     epochs_warmup: int = 2  # first stage: see StepModel.warmup_parameters
     epochs_single: int = 14  # one-step programs on episodes where one box changed

@@ -94,8 +94,7 @@ class ConceptStepModel(StepModel):
              previous: Tensor, mask: Tensor) -> StepOutput:
         # filter[r, t, n]: log-probability that word t's concept holds of object n
         logit = torch.einsum("rtd,rnd->rtn", self.concept(tokens), feats)
-        logit = (logit + self.concept_bias(tokens)
-                 + self.cfg.previous_scale * self.previous(tokens) * previous[:, None])
+        logit = logit + self.concept_bias(tokens) + self.previous(tokens) * previous[:, None]
         log_filter = F.logsigmoid(logit)
         offsets = (centres[:, :, None] - centres[:, None]) / _OFFSET_SCALE  # (R, N, N, 3)
         eye = torch.eye(mask.shape[1], dtype=torch.bool, device=mask.device)

@@ -26,8 +26,7 @@ from nsrmp_bench.reference_model.program.scene3d import (
     SceneState,
     move,
     project_boxes,
-    side_features,
-    top_features,
+    rule_features,
 )
 
 __all__ = [
@@ -129,30 +128,36 @@ def fit_rule(states: Sequence[SceneState], finals: Sequence[NDArray[np.floating]
             if score[best] < 0.5:
                 continue
             s, b, a = (int(v) for v in steps[best])
-            box = np.asarray(final, dtype=np.float64)[s]
-            uv = np.array([[(box[0] + box[2]) / 2, (box[1] + box[3]) / 2]])
-            eye = np.asarray(state.camera.eye, dtype=np.float64)
-            ray = state.camera.backproject(uv, np.ones(1))[0] - eye
-            base = state.centres[b]
-            one_s, one_b = np.array([s]), np.array([b])
-            if a == TOP:
-                flat = ray[:2] @ ray[:2]
-                if flat < 1e-12:
-                    continue
-                t = float((base[:2] - eye[:2]) @ ray[:2] / flat)
-                rows[True].append(top_features(state, one_s, one_b)[0])
-                want[True].append(eye[2] + t * ray[2] - base[2])
-            else:
-                cut = state.camera.ray_at_height(uv[0], float(state.centres[s, 2]))
-                if cut is None:
-                    continue
-                sign = -1.0 if a == LEFT else 1.0
-                rows[False].append(side_features(state, one_s, one_b)[0])
-                want[False].append(sign * (float(cut[0]) - base[0]))
+            got = _offset(state, np.asarray(final, dtype=np.float64)[s], s, b, a)
+            if got is None:
+                continue
+            rows[a == TOP].append(rule_features(state, np.array([s]), np.array([b]))[0])
+            want[a == TOP].append(got)
         top = _robust_lstsq(rows[True], want[True], rule.top)
         side = _robust_lstsq(rows[False], want[False], rule.side)
         rule = ActionRule(rule.centre, top, side)
     return rule
+
+
+def _offset(state: SceneState, box: F64, s: int, b: int, a: int) -> float | None:
+    """Where ``box`` (the mover ``s``'s final box) puts the mover relative to base ``b``:
+    for ``top`` the lift of the point of the ray through the box's centre above the base,
+    for ``left``/``right`` the distance beside the base (along the side's direction) where
+    that ray meets the mover's resting height; None when the ray gives no such point."""
+    uv = np.array([(box[0] + box[2]) / 2, (box[1] + box[3]) / 2])
+    base = state.centres[b]
+    if a == TOP:
+        eye = np.asarray(state.camera.eye, dtype=np.float64)
+        ray = state.camera.backproject(uv, np.ones(())) - eye
+        flat = float(ray[:2] @ ray[:2])
+        if flat < 1e-12:
+            return None
+        t = float((base[:2] - eye[:2]) @ ray[:2] / flat)
+        return float(eye[2] + t * ray[2] - base[2])
+    cut = state.camera.ray_at_height(uv, float(state.centres[s, 2]))
+    if cut is None:
+        return None
+    return (-1.0 if a == LEFT else 1.0) * float(cut[0] - base[0])
 
 
 def _robust_lstsq(rows: list[F64], want: list[float],

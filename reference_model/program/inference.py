@@ -1,8 +1,8 @@
 """A program model at inference: split, then run step after step on the world the
 previous steps left, and write what it did as predictions.
 
-The splitter makes as many cuts as its boundary probabilities add up to, at their peaks
-(any number of steps);
+The splitter makes as many cuts as its calibrated boundary probabilities say, at their
+peaks (any number of steps);
 each piece's action is the most probable one (the same distribution training scores, D1),
 its subject and base the best pair of distinct objects that the DSL allows on the stacks
 the previous steps built (:func:`legal_pairs`: no object under another is picked up, none
@@ -24,6 +24,7 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
+from nsrmp_bench.dsl.actions import MAX_STACK
 from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.reference_model.predictions import model_predictions
 from nsrmp_bench.reference_model.program.data import ProgramData
@@ -37,7 +38,6 @@ __all__ = ["Decoded", "Oracle", "decode", "decoded_iou_m", "decoded_predictions"
 
 MAX_STEPS = 12
 WINDOW = 3
-MAX_STACK = 3  # the DSL's (nsrmp_bench.dsl.actions.MAX_STACK): objects in one stack
 
 
 def legal_pairs(on: Sequence[int], action: int, n: int) -> NDArray[np.bool_]:
@@ -83,11 +83,10 @@ class Decoded:
 
 
 def _cuts(splitter: Splitter, tokens: list[list[int]]) -> list[list[int]]:
-    """As many cuts as the splitter's boundary probabilities say (:meth:`Splitter.boundaries`),
-    each at
-    the most probable token left once the ``WINDOW`` tokens either side of the cuts
-    already made are set aside (its teacher spreads a boundary over the few places where
-    the steps read the same)."""
+    """As many cuts as the splitter's boundary probabilities say
+    (:meth:`Splitter.boundaries`), each at the most probable token left once the
+    ``WINDOW`` tokens either side of the cuts already made are set aside (its teacher
+    spreads a boundary over the few places where the steps read the same)."""
     probs = torch.sigmoid(splitter(pad_tokens(tokens)))
     out = []
     for row, tok in zip(probs, tokens, strict=True):

@@ -134,8 +134,12 @@ class ProgramModel(nn.Module):
 
     def load_state_dict(self, state_dict: Mapping[str, Any], strict: bool = True,
                         assign: bool = False) -> Any:
-        """As nn.Module's; a checkpoint from before the splitter's calibration loads with
-        (1, 0), the rounded sum it was trained and selected with."""
+        """As nn.Module's, for checkpoints of earlier designs too: the first action rule's
+        three values load as they are (:meth:`ActionRule.from_values` reads them), and a
+        checkpoint from before the splitter's calibration loads with (1, 0), the rounded
+        sum it was trained and selected with."""
+        if "rule_values" in state_dict:
+            self.rule_values = torch.zeros_like(state_dict["rule_values"])
         if "splitter.calibration" not in state_dict:
             state_dict = {**state_dict, "splitter.calibration": torch.tensor([1.0, 0.0])}
         return super().load_state_dict(state_dict, strict, assign)

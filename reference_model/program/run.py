@@ -77,10 +77,7 @@ class ProgramModelBase(ProgramPredictionModel):
     @classmethod
     def build_network(cls, config: Any, vocab_size: int,
                       state: Mapping[str, torch.Tensor]) -> ProgramModel:
-        model = ProgramModel(cls.step_model(config, vocab_size), Splitter(vocab_size))
-        if "rule_values" in state:  # a checkpoint of the first rule holds three values
-            model.rule_values = torch.zeros_like(state["rule_values"])
-        return model
+        return ProgramModel(cls.step_model(config, vocab_size), Splitter(vocab_size))
 
     @classmethod
     def plan_training(cls, data: Path, config: Any, seed: int) -> TrainingPlan:
@@ -159,18 +156,21 @@ class ProgramModelBase(ProgramPredictionModel):
     def predict(self, items: Sequence[dict[str, Any]], camera: Camera,
                 oracle: Oracle | None = None) -> Iterator[Prediction]:
         """Predictions for ``items`` (``oracle``: the diagnosis's gold substitutions)."""
-        self.set_threads()
-        data = program_data(list(items), self.vocab, camera, self.model.rule)
-        decoded = decode(self.model.step, self.model.splitter, data, self.model.rule, oracle)
+        data, decoded = self._decode(items, camera, oracle)
         ids = [str(it["id"]) for it in items]
         return decoded_predictions(ids, data, decoded, camera)
 
     def programs(self, items: Sequence[dict[str, Any]],
                  camera: Camera) -> list[list[tuple[int, int, int]]]:
         """Per item, its decoded steps."""
+        return self._decode(items, camera)[1].steps
+
+    def _decode(self, items: Sequence[dict[str, Any]], camera: Camera,
+                oracle: Oracle | None = None) -> tuple[ProgramData, Decoded]:
         self.set_threads()
         data = program_data(list(items), self.vocab, camera, self.model.rule)
-        return decode(self.model.step, self.model.splitter, data, self.model.rule).steps
+        return data, decode(self.model.step, self.model.splitter, data, self.model.rule,
+                            oracle)
 
 
 def validation_figures(data: ProgramData, decoded: Decoded,

@@ -5,12 +5,11 @@ centre is back-projected through the camera at the depth of its visible surface 
 ``rule.centre`` times its estimated size (the centre lies behind the visible surface: v1
 back-projected at the surface and put every position 2.5 cm short, D8), and its size is
 the box width at that depth. An action places the mover in 3D beside or on its base and
-projects the result back into the image (D7): ``top`` lifts it above the base's centre by
-a weighted sum of the two objects' sizes and heights (:data:`TOP_FEATURES`);
-``left``/``right`` set it beside the base along world -x/+x (image-left is -x), at its
-resting height, by a weighted sum of the two sizes and a constant margin
-(:data:`SIDE_FEATURES`). The new box keeps the mover's box size, scaled by the ratio of
-its old and new camera depths.
+projects the result back into the image (D7): ``top`` lifts it above the base's centre,
+``left``/``right`` set it beside the base along world -x/+x (image-left is -x) at its
+resting height, each by its own weighted sum of the two objects' sizes and heights and a
+constant (:data:`FEATURES`). The new box keeps the mover's box size, scaled by the ratio
+of its old and new camera depths.
 
 The weights are the rule's learned corrections, fitted on training episodes by
 :func:`~.consistent.fit_rule` (least squares on where the final boxes put the movers).
@@ -27,31 +26,31 @@ from numpy.typing import NDArray
 
 from nsrmp_bench.geometry.camera import Camera
 
-__all__ = ["LEFT", "RIGHT", "SIDE_FEATURES", "TOP", "TOP_FEATURES", "ActionRule", "SceneState",
-           "move", "project_boxes", "scene_state", "side_features", "top_features"]
+__all__ = ["FEATURES", "LEFT", "RIGHT", "TOP", "ActionRule", "SceneState", "move",
+           "project_boxes", "rule_features", "scene_state"]
 
 F64 = NDArray[np.float64]
 TOP, LEFT, RIGHT = 0, 1, 2  # indices into nsrmp_bench.vocabulary.ACTIONS
 
 
-TOP_FEATURES = ("mover size", "base size", "mover height", "base height", "1")
-SIDE_FEATURES = ("mover size", "base size", "mover height", "base height", "1")
+FEATURES = ("mover size", "base size", "mover height", "base height", "1")
+"""What the action rule's lift and side distance are weighted sums of."""
 
 
 @dataclass(frozen=True)
 class ActionRule:
     """The fitted coefficients of the action rule (see the module doc): ``top`` weighs
-    :data:`TOP_FEATURES` into the lift above the base's centre, ``side`` weighs
-    :data:`SIDE_FEATURES` into the distance beside it along world x."""
+    :data:`FEATURES` into the lift above the base's centre, ``side`` into the distance
+    beside it along world x."""
 
     centre: float = 0.3
     top: tuple[float, ...] = (0.375, 0.375, 0.0, 0.0, 0.0)
     side: tuple[float, ...] = (0.75, 0.75, 0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
-        if len(self.top) != len(TOP_FEATURES) or len(self.side) != len(SIDE_FEATURES):
-            msg = (f"an action rule has {len(TOP_FEATURES)} top and {len(SIDE_FEATURES)} "
-                   f"side coefficients, not {len(self.top)} and {len(self.side)}")
+        if len(self.top) != len(FEATURES) or len(self.side) != len(FEATURES):
+            msg = (f"an action rule has {len(FEATURES)} top and {len(FEATURES)} side "
+                   f"coefficients, not {len(self.top)} and {len(self.side)}")
             raise ValueError(msg)
 
     def to_dict(self) -> dict[str, Any]:
@@ -77,7 +76,7 @@ class ActionRule:
             centre, lift, gap = v
             return cls(centre, (lift / 2, lift / 2, 0.0, 0.0, 0.0),
                        (gap / 2, gap / 2, 0.0, 0.0, 0.0))
-        t = 1 + len(TOP_FEATURES)
+        t = 1 + len(FEATURES)
         return cls(v[0], tuple(v[1:t]), tuple(v[t:]))
 
 
@@ -112,14 +111,8 @@ def scene_state(boxes: NDArray[Any], surface_depth: NDArray[Any], camera: Camera
     return SceneState(camera.backproject(uv, depth), size, height, wh, depth, camera)
 
 
-def top_features(state: SceneState, subject: NDArray[Any], base: NDArray[Any]) -> F64:
-    """(K, len(TOP_FEATURES)) features of ``top`` steps."""
-    return np.stack([state.sizes[subject], state.sizes[base], state.heights[subject],
-                     state.heights[base], np.ones(len(subject))], axis=1)
-
-
-def side_features(state: SceneState, subject: NDArray[Any], base: NDArray[Any]) -> F64:
-    """(K, len(SIDE_FEATURES)) features of ``left``/``right`` steps."""
+def rule_features(state: SceneState, subject: NDArray[Any], base: NDArray[Any]) -> F64:
+    """(K, len(FEATURES)) the action rule's features of K (subject, base) pairs."""
     return np.stack([state.sizes[subject], state.sizes[base], state.heights[subject],
                      state.heights[base], np.ones(len(subject))], axis=1)
 
@@ -136,8 +129,8 @@ def move(state: SceneState, centres: F64, subject: NDArray[Any], base: NDArray[A
     base_c = centres[k, bs]
     new = base_c.copy()
     top = a == TOP
-    lift = top_features(state, s[top], bs[top]) @ np.asarray(rule.top)
-    gap = side_features(state, s[~top], bs[~top]) @ np.asarray(rule.side)
+    lift = rule_features(state, s[top], bs[top]) @ np.asarray(rule.top)
+    gap = rule_features(state, s[~top], bs[~top]) @ np.asarray(rule.side)
     new[top, 2] = base_c[top, 2] + lift
     side = np.where(a == LEFT, -1.0, 1.0)
     new[~top, 0] = base_c[~top, 0] + side[~top] * gap
