@@ -158,6 +158,10 @@ class ModelConfig:
 
     _field_types: ClassVar[dict[str, Any]]
 
+    ABSENT: ClassVar[Mapping[str, Any]] = {}
+    """Values of fields added after checkpoints were shipped, as those checkpoints were
+    trained (a field's default is what new runs use)."""
+
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         CONFIGS[f"{cls.__module__}.{cls.__qualname__}"] = cls
@@ -208,7 +212,10 @@ class ModelConfig:
 
     @classmethod
     def from_dict(cls: type[C], data: Mapping[str, Any]) -> C:
-        """Inverse of :meth:`to_dict`; an unknown key is an error."""
+        """Inverse of :meth:`to_dict`; an unknown key is an error, and a key the dict
+        lacks takes its :attr:`ABSENT` value (what checkpoints from before the field was
+        added were trained with), else its default."""
+        data = {**cls.ABSENT, **data}
         unknown = sorted(set(data) - set(cls.field_types()))
         if unknown:
             msg = (f"{cls.__qualname__} has no field(s) {unknown}; its fields are "

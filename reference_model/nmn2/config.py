@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any, ClassVar
 
 from nsrmp_bench.reference_model.contract import ModelConfig
 
@@ -14,7 +16,10 @@ class NMN2Config(ModelConfig):
     """Everything that shapes an NMN+ v2 run; stored in every checkpoint. The stages,
     batch and optimiser are NSRM v2's, so that the comparison isolates the program."""
 
+    ABSENT: ClassVar[Mapping[str, Any]] = {"object_sizes": False}
+
     concept_dim: int = 32
+    object_sizes: bool = True  # perception reads each object's estimated size (metres)
     hidden: int = 64
     heads: int = 2
     score: str = "mlp"  # "mlp": an MLP of query * key (nmn-v1's); "dot": their scaled dot

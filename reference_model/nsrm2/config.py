@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any, ClassVar
 
 from nsrmp_bench.reference_model.contract import ModelConfig
 
@@ -13,7 +15,10 @@ __all__ = ["NSRM2Config"]
 class NSRM2Config(ModelConfig):
     """Everything that shapes an NSRM v2 run; stored in every checkpoint."""
 
+    ABSENT: ClassVar[Mapping[str, Any]] = {"object_sizes": False}
+
     concept_dim: int = 32
+    object_sizes: bool = True  # perception reads each object's estimated size (metres)
     word_dim: int = 32
     hidden: int = 64
     ordered_roles: bool = True  # a reference reads head, relation, anchor in that order

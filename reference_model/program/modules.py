@@ -16,26 +16,40 @@ from nsrmp_bench.reference_model.tokens import PAD
 
 __all__ = ["Perception", "ProgramModel", "Splitter", "StepModel", "StepOutput", "TokenEncoder"]
 
+_SIZE_MEAN, _SIZE_SCALE = 0.08, 0.01  # metres: objects here are 5-7 cm
+
 StepOutput = tuple[Tensor, Tensor, Tensor]
 """Log-probabilities of the subject (R, N), the base (R, N) and the action (R, 3)."""
 
 
 class Perception(nn.Module):
-    """Object crops (B, N, 3, C, C) -> features (B, N, dim); trained to the end (D6)."""
+    """Object crops (B, N, 3, C, C) and sizes (B, N, 2) -> features (B, N, dim); trained
+    to the end (D6).
 
-    def __init__(self, dim: int) -> None:
+    A crop is resized to a square, so it has lost how big the object is; with
+    ``sizes`` the head also reads each object's estimated width and height in metres
+    (:class:`~.scene3d.SceneState`): a lego brick is a third larger than a cube, which
+    the crop alone confused it with (cube/lego were most of the attribute-only
+    grounding misses)."""
+
+    def __init__(self, dim: int, sizes: bool = False) -> None:
         super().__init__()
         self.cnn = CropEncoder(48)
-        self.head = nn.Sequential(nn.Linear(self.cnn.out_dim, 64), nn.ReLU(),
-                                  nn.Linear(64, dim))
+        self.sizes = sizes
+        self.head = nn.Sequential(nn.Linear(self.cnn.out_dim + (2 if sizes else 0), 64),
+                                  nn.ReLU(), nn.Linear(64, dim))
         self.dim = dim
 
-    def forward(self, crops: Tensor, mask: Tensor) -> Tensor:
+    def forward(self, crops: Tensor, mask: Tensor, sizes: Tensor) -> Tensor:
         b, n = mask.shape
         flat = mask.reshape(-1)
         out = crops.new_zeros((b * n, self.dim), dtype=torch.float32)
         if bool(flat.any()):
-            out[flat] = self.head(self.cnn(crops.reshape(b * n, *crops.shape[2:])[flat]))
+            x = self.cnn(crops.reshape(b * n, *crops.shape[2:])[flat])
+            if self.sizes:
+                x = torch.cat([x, (sizes.reshape(b * n, 2)[flat] - _SIZE_MEAN) / _SIZE_SCALE],
+                              -1)
+            out[flat] = self.head(x)
         return out.reshape(b, n, self.dim)
 
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
 import torch
 from torch import Tensor
 
@@ -44,7 +45,8 @@ def pad_tokens(rows: Sequence[Sequence[int]]) -> Tensor:
 
 
 class EpisodeBatch:
-    """Episodes ``rows`` of ``data`` as tensors: crops, mask, centres (float32)."""
+    """Episodes ``rows`` of ``data`` as tensors: crops, mask, centres (float32) and the
+    objects' estimated sizes (width, height in metres)."""
 
     def __init__(self, data: ProgramData, rows: Sequence[int]) -> None:
         sub = data.enc.select(list(rows))
@@ -57,6 +59,11 @@ class EpisodeBatch:
             c = data.states[r].centres
             centres[i, : len(c)] = torch.from_numpy(c).float()
         self.centres = centres
+        sizes = torch.zeros((len(rows), n, 2))
+        for i, r in enumerate(rows):
+            s = data.states[r]
+            sizes[i, : len(s)] = torch.from_numpy(np.stack([s.sizes, s.heights], 1)).float()
+        self.sizes = sizes
         self.tokens = [data.tokens[r] for r in rows]
 
 
@@ -90,7 +97,7 @@ def single_loss(model: StepModel, data: ProgramData, rows: Sequence[int]) -> Ten
     assert data.consistent is not None
     batch = EpisodeBatch(data, rows)
     tokens = pad_tokens(batch.tokens)
-    feats = model.perception(batch.crops, batch.mask)
+    feats = model.perception(batch.crops, batch.mask, batch.sizes)
     out = model.step(model.code(tokens), tokens, feats, batch.centres,
                      torch.zeros(batch.mask.shape), batch.mask)
     progs, seg = [], []
@@ -191,7 +198,7 @@ def teacher_cuts(model: StepModel, data: ProgramData, rows: Sequence[int],
     program's first step (the ``beam`` best), and one step always."""
     assert data.consistent is not None
     batch = EpisodeBatch(data, rows)
-    feats = model.perception(batch.crops, batch.mask)
+    feats = model.perception(batch.crops, batch.mask, batch.sizes)
     prefixes, prow = [], []
     for i, tok in enumerate(batch.tokens):
         for c in range(1, len(tok)):
@@ -229,7 +236,7 @@ def joint_loss(model: StepModel, splitter: Splitter, data: ProgramData,
     if not kept:
         return sum((p.sum() * 0.0 for p in splitter.parameters()), torch.zeros(()))
     batch = EpisodeBatch(data, [r for r, _, _ in kept])
-    feats = model.perception(batch.crops, batch.mask)
+    feats = model.perception(batch.crops, batch.mask, batch.sizes)
     scores = option_scores(model, data, batch, feats, [[c for c, _ in k] for _, k, _ in kept])
     ll = torch.stack([torch.logsumexp(sc, 0) for sc in scores])
     ok = torch.isfinite(ll)

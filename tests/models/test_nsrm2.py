@@ -83,7 +83,7 @@ def test_d1_one_action_encoding(smoke_test: Path) -> None:
     tok = pad_tokens(data.tokens[:1])
     batch = EpisodeBatch(data, [0])
     with torch.no_grad():
-        feats = step.perception(batch.crops, batch.mask)
+        feats = step.perception(batch.crops, batch.mask, batch.sizes)
         s_lp, b_lp, a_lp = step.step(step.code(tok), tok, feats, batch.centres,
                                      torch.zeros(batch.mask.shape), batch.mask)
         for action in range(3):
@@ -165,7 +165,7 @@ def test_d5_relations_read_on_the_current_state(smoke_test: Path) -> None:
 
     batch = EpisodeBatch(data, [0])
     tok = pad_tokens([data.tokens[0][1:]])
-    s_lp, _, _ = model.step(model.code(tok), tok, model.perception(batch.crops, batch.mask),
+    s_lp, _, _ = model.step(model.code(tok), tok, model.perception(batch.crops, batch.mask, batch.sizes),
                             batch.centres, torch.zeros(batch.mask.shape), batch.mask)
     assert int(s_lp[0].argmax()) == 0
 
