@@ -72,7 +72,7 @@ class AttentionStepModel(StepModel):
         super().__init__()
         self.cfg = cfg
         d = cfg.hidden
-        self.perception = Perception(cfg.concept_dim, cfg.object_sizes)
+        self.perception = Perception(cfg.concept_dim, cfg.object_sizes, cfg.augment)
         self.encoder = TokenEncoder(vocab_size, d)
         obj = cfg.concept_dim + 4
         self.subject = _RoleAttention(d, obj, d, cfg.heads, cfg.score)

@@ -55,7 +55,7 @@ class ConceptStepModel(StepModel):
         super().__init__()
         self.cfg = cfg
         d = cfg.concept_dim
-        self.perception = Perception(d, cfg.object_sizes)
+        self.perception = Perception(d, cfg.object_sizes, cfg.augment)
         self.concept = nn.Embedding(vocab_size, d)
         self.concept_bias = nn.Embedding(vocab_size, 1)
         self.previous = nn.Embedding(vocab_size, 1)

@@ -8,6 +8,7 @@ from collections.abc import Mapping
 from typing import Any
 
 import torch
+import torch.nn.functional as F
 from torch import Tensor, nn
 
 from nsrmp_bench.reference_model.features import CropEncoder
@@ -32,10 +33,11 @@ class Perception(nn.Module):
     the crop alone confused it with (cube/lego were most of the attribute-only
     grounding misses)."""
 
-    def __init__(self, dim: int, sizes: bool = False) -> None:
+    def __init__(self, dim: int, sizes: bool = False, augment: bool = False) -> None:
         super().__init__()
         self.cnn = CropEncoder(48)
         self.sizes = sizes
+        self.augment = augment
         self.head = nn.Sequential(nn.Linear(self.cnn.out_dim + (2 if sizes else 0), 64),
                                   nn.ReLU(), nn.Linear(64, dim))
         self.dim = dim
@@ -45,7 +47,8 @@ class Perception(nn.Module):
         flat = mask.reshape(-1)
         out = crops.new_zeros((b * n, self.dim), dtype=torch.float32)
         if bool(flat.any()):
-            x = self.cnn(crops.reshape(b * n, *crops.shape[2:])[flat])
+            c = crops.reshape(b * n, *crops.shape[2:])[flat]
+            x = self.cnn(_jitter(c) if self.augment and self.training else c)
             if self.sizes:
                 x = torch.cat([x, (sizes.reshape(b * n, 2)[flat] - _SIZE_MEAN) / _SIZE_SCALE],
                               -1)
@@ -53,18 +56,36 @@ class Perception(nn.Module):
         return out.reshape(b, n, self.dim)
 
 
+def _jitter(crops: Tensor) -> Tensor:
+    """Crops (K, 3, C, C) each shifted by up to a tenth of its size and scaled by 0.9-1.1
+    (torch's generator: the run's seed), as a box drawn a little differently would crop
+    it; float, the values of the uint8 range."""
+    k = crops.shape[0]
+    scale = 0.9 + 0.2 * torch.rand(k)
+    shift = 0.2 * torch.rand(k, 2) - 0.1
+    theta = torch.zeros(k, 2, 3)
+    theta[:, 0, 0] = scale
+    theta[:, 1, 1] = scale
+    theta[:, :, 2] = shift
+    grid = F.affine_grid(theta, list(crops.shape), align_corners=False)
+    out: Tensor = F.grid_sample(crops.float(), grid, padding_mode="border",
+                                align_corners=False)
+    return out
+
+
 class TokenEncoder(nn.Module):
     """Tokens (B, T) -> contextual states (B, T, dim): two convolutions read word order
-    (a window of 13 tokens), one self-attention layer the whole sequence. Parallel over
-    tokens, so it trains fast on a CPU (a GRU was 10x slower here)."""
+    (a window of 13 tokens), one self-attention layer the whole sequence (``attend``;
+    without it, each state reads its window only). Parallel over tokens, so it trains
+    fast on a CPU (a GRU was 10x slower here)."""
 
-    def __init__(self, vocab_size: int, dim: int = 64) -> None:
+    def __init__(self, vocab_size: int, dim: int = 64, attend: bool = True) -> None:
         super().__init__()
         self.embed = nn.Embedding(vocab_size, dim, padding_idx=PAD)
         self.conv1 = nn.Conv1d(dim, dim, 5, padding=2)
         self.conv2 = nn.Conv1d(dim, dim, 5, padding=4, dilation=2)
-        self.attend = nn.TransformerEncoderLayer(dim, 4, 2 * dim, dropout=0.0,
-                                                 batch_first=True)
+        self.attend = (nn.TransformerEncoderLayer(dim, 4, 2 * dim, dropout=0.0,
+                                                  batch_first=True) if attend else None)
         self.dim = dim
 
     def forward(self, tokens: Tensor) -> Tensor:
@@ -73,6 +94,8 @@ class TokenEncoder(nn.Module):
         keep = (~pad)[..., None].float()
         h = x + torch.relu(self.conv1((x * keep).transpose(1, 2))).transpose(1, 2)
         h = h + torch.relu(self.conv2((h * keep).transpose(1, 2))).transpose(1, 2)
+        if self.attend is None:
+            return h * keep
         out: Tensor = self.attend(h * keep, src_key_padding_mask=pad)
         return out
 
@@ -84,13 +107,18 @@ class Splitter(nn.Module):
     ``calibration`` (a, b): an instruction whose boundary probabilities add up to ``s``
     has ``round((s - b) / a)`` boundaries. Its teacher spreads each boundary's probability
     over a few places and never quite commits to it, so the sum is less than the count;
-    training fits (a, b) (:func:`~.training.fit_calibration`). (1, 0) rounds the sum."""
+    training fits (a, b) (:func:`~.training.fit_calibration`). (1, 0) rounds the sum.
+
+    With ``local``, a boundary is read from the 13 tokens around it only (no
+    self-attention): whether a step starts at a word is a local matter (a connector
+    between two references), and a splitter that sees the whole instruction can learn
+    how many steps the training instructions have (one or two) instead."""
 
     calibration: Tensor
 
-    def __init__(self, vocab_size: int, dim: int = 48) -> None:
+    def __init__(self, vocab_size: int, dim: int = 48, local: bool = False) -> None:
         super().__init__()
-        self.encoder = TokenEncoder(vocab_size, dim)
+        self.encoder = TokenEncoder(vocab_size, dim, attend=not local)
         self.out = nn.Linear(dim, 1)
         nn.init.constant_(self.out.bias, -4.0)  # untrained, it cuts nowhere
         self.register_buffer("calibration", torch.tensor([1.0, 0.0]))

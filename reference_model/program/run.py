@@ -77,7 +77,8 @@ class ProgramModelBase(ProgramPredictionModel):
     @classmethod
     def build_network(cls, config: Any, vocab_size: int,
                       state: Mapping[str, torch.Tensor]) -> ProgramModel:
-        return ProgramModel(cls.step_model(config, vocab_size), Splitter(vocab_size))
+        return ProgramModel(cls.step_model(config, vocab_size),
+                            Splitter(vocab_size, local=bool(config.local_splitter)))
 
     @classmethod
     def plan_training(cls, data: Path, config: Any, seed: int) -> TrainingPlan:
