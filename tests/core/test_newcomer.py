@@ -50,6 +50,29 @@ def test_every_writer_creates_a_missing_output_folder(tmp_path: Path, data: Path
     assert json.loads((new / "c" / "s.json").read_text())["split"] == SPLIT
 
 
+@pytest.mark.sim
+def test_the_writers_on_rendered_data_create_a_missing_output_folder(
+        tmp_path: Path, smoke_v2_test: Path) -> None:
+    for extra in ("cv2", "torch", "mcap"):
+        pytest.importorskip(extra)
+    new = tmp_path / "not" / "yet"
+    dets, oracle = new / "a" / "dets.jsonl", tmp_path / "oracle.jsonl"
+    assert cli("detect", "--detector", "classical", "--data", smoke_v2_test, "--out", dets,
+               "--quiet") == 0
+    assert cli("score-detections", dets, "--data", smoke_v2_test,
+               "--json", new / "b" / "s.json") == 0
+    assert cli("predict", "nsrm", "--data", smoke_v2_test, "--out", new / "c" / "p.jsonl",
+               "--quiet") == 0
+    assert cli("baseline", "oracle", "--data", smoke_v2_test, "--out", oracle) == 0
+    assert cli("replay", oracle, "--data", smoke_v2_test, "--out", new / "d" / "r.jsonl",
+               "--limit", "1", "--quiet") == 0
+    first = json.loads(oracle.read_text().splitlines()[1])["id"]
+    assert cli("export-mcap", smoke_v2_test, "--out", new / "e" / "x.mcap",
+               "--episodes", first) == 0
+    written = sorted(p.relative_to(new).as_posix() for p in new.rglob("*") if p.is_file())
+    assert written == ["a/dets.jsonl", "b/s.json", "c/p.jsonl", "d/r.jsonl", "e/x.mcap"]
+
+
 def test_a_folder_where_a_file_is_meant_is_refused_before_any_work(
         tmp_path: Path, data: Path, capsys: pytest.CaptureFixture[str]) -> None:
     folder = tmp_path / "here"
