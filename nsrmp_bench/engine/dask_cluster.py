@@ -15,28 +15,36 @@ Faults: when a worker dies, Dask runs its tasks again on another worker; tasks w
 atomically, so a half-written shard is never taken as complete. A task whose workers keep
 dying, a scheduler that cannot be reached and one that goes away mid-run end in an
 :class:`~nsrmp_bench.errors.EngineError` saying what to do; whatever finished stays on
-disk, and rerunning the same command resumes from it.
+disk, and rerunning the same command resumes from it. Ctrl-C and SIGTERM (see
+:mod:`nsrmp_bench.engine.signals`) close the LocalCluster, its nannies and workers, even in
+the middle of its start, without the workers' complaints at being stopped mid-task; its
+workers leave a terminal's Ctrl-C to this process, and end when this process is killed
+(Dask watches their parent).
 """
 
 from __future__ import annotations
 
 import contextlib
 import importlib.metadata
+import logging
 import os
 import platform
 import queue as queue_module
+import signal
 import time
 import uuid
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import CancelledError
 from pathlib import Path
+from types import TracebackType
 from typing import Any
 
 from nsrmp_bench import __version__
 from nsrmp_bench._optional import require
 from nsrmp_bench.engine.base import Engine, run_task
 from nsrmp_bench.engine.progress import ProgressTally, TaskReport
+from nsrmp_bench.engine.signals import signals_held
 from nsrmp_bench.errors import EngineError, InvalidArgument
 
 __all__ = ["DaskEngine", "software"]
@@ -56,6 +64,20 @@ def software() -> dict[str, str]:
         except importlib.metadata.PackageNotFoundError:
             out[dist] = "not installed"
     return out
+
+
+def _leave_ctrl_c_to_the_driver() -> None:
+    """Run on a LocalCluster's worker (in its event loop, the process's main thread): a
+    terminal's Ctrl-C reaches every process of the command, and workers that take it close
+    themselves in disorder, with tracebacks; the command's process stops them instead."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _hush() -> None:
+    """Run on a LocalCluster's worker that the command is about to stop (Ctrl-C, SIGTERM):
+    a worker closed in the middle of a task logs the cancellation and its lost heartbeat,
+    with tracebacks, which read like a crash; the command says what happened instead."""
+    logging.disable(logging.CRITICAL)
 
 
 class _EventSink:
@@ -104,21 +126,37 @@ class DaskEngine(Engine):
         self._cluster: Any = None
         self._client: Any = None
         self._address = scheduler or "a LocalCluster"
+        self._stopping = False  # interrupted: the LocalCluster is stopped without its logs
 
     # -- connection ----------------------------------------------------------------
     def __enter__(self) -> DaskEngine:
-        if self.scheduler is None:
-            with self._dask.config.set({_TRIM_KEY: None}):  # the nannies read it at start
-                self._cluster = self._dd.LocalCluster(
-                    n_workers=self.workers, threads_per_worker=1, processes=True,
-                    host="127.0.0.1", dashboard_address=None,
-                )
-            self._address = str(self._cluster.scheduler_address)
+        try:
+            if self.scheduler is None:
+                # Ctrl-C or SIGTERM in the middle of a LocalCluster's start leaves nannies
+                # nothing can close (Dask's exit hook fails on them with a traceback): the
+                # signal waits the second or two the start takes, then close() stops it all
+                with signals_held():
+                    with self._dask.config.set({_TRIM_KEY: None}):  # read at the nannies' start
+                        self._cluster = self._dd.LocalCluster(
+                            n_workers=self.workers, threads_per_worker=1, processes=True,
+                            host="127.0.0.1", dashboard_address=None,
+                        )
+                    self._address = str(self._cluster.scheduler_address)
+                    self._connect()
+                    self.client.run(_leave_ctrl_c_to_the_driver)
+            else:
+                self._connect()
+            self._check_workers()
+        except BaseException as exc:
+            self._release(exc)
+            raise
+        return self
+
+    def _connect(self) -> None:
         try:
             self._client = self._dd.Client(self._address, timeout=self.connect_timeout_s,
-                                  set_as_default=False)
+                                           set_as_default=False)
         except (OSError, TimeoutError) as exc:
-            self.close()
             msg = (
                 f"cannot reach the Dask scheduler at {self._address!r} within "
                 f"{self.connect_timeout_s:.0f} s ({exc}); expected a running `dask scheduler` "
@@ -126,12 +164,6 @@ class DaskEngine(Engine):
                 "machine), check the address, or drop --scheduler to start a LocalCluster"
             )
             raise EngineError(msg) from exc
-        try:
-            self._check_workers()
-        except BaseException:
-            self.close()
-            raise
-        return self
 
     def close(self) -> None:
         if self._client is not None:
@@ -140,8 +172,36 @@ class DaskEngine(Engine):
                 self._client.close(timeout=5)
             self._client = None
         if self._cluster is not None:
-            self._cluster.close(timeout=10)
+            # stopped on purpose: the nannies' and the scheduler's complaints about busy
+            # workers (killed after a few seconds) are not news
+            disabled = logging.root.manager.disable
+            if self._stopping:
+                logging.disable(logging.CRITICAL)
+            try:
+                self._cluster.close(timeout=10)
+            finally:
+                logging.disable(disabled)
             self._cluster = None
+        self._stopping = False
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self._release(exc)
+
+    def _release(self, exc: BaseException | None) -> None:
+        if isinstance(exc, KeyboardInterrupt):  # Ctrl-C, or SIGTERM (signals.Terminated)
+            self._stop_quietly()
+        self.close()
+
+    def _stop_quietly(self) -> None:
+        """Before an interruption stops the LocalCluster: its workers log nothing more."""
+        if self._stopping or self._cluster is None or self._client is None:
+            return
+        self._stopping = True
+        if self._client.status == "running":
+            with contextlib.suppress(OSError, TimeoutError, RuntimeError):
+                # callback_timeout: Client.sync's limit (run's own keywords go to _hush)
+                self._client.run(_hush, callback_timeout=5)
 
     @property
     def client(self) -> Any:
@@ -258,6 +318,9 @@ class DaskEngine(Engine):
                     fut = ready.pop()
                     k = futures[fut]
                     yield k, self._result(fut, tasks[k], len(tasks) - len(pending), len(tasks))
+        except KeyboardInterrupt:  # before the cancellations below are logged
+            self._stop_quietly()
+            raise
         finally:
             if client.status == "running":
                 client.cancel(list(pending))

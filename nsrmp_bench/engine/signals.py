@@ -6,7 +6,8 @@ ends the driver without a word and leaves its pool workers running. Inside
 so the same clean-up as Ctrl-C runs: engines stop their workers, writers remove their
 ``*.tmp``, and the command exits 143. A worker started with :func:`watch_parent` as its
 initializer ends itself when its driver is gone (SIGKILL, a crash), instead of going on
-writing under PID 1.
+writing under PID 1. Within :func:`signals_held` Ctrl-C and SIGTERM wait until a start-up
+that cannot be cut short cleanly is done, and then stop it whole.
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
 
-__all__ = ["EXIT_SIGTERM", "Terminated", "sigterm_as_interrupt", "watch_parent"]
+__all__ = ["EXIT_SIGTERM", "Terminated", "signals_held", "sigterm_as_interrupt",
+           "watch_parent"]
 
 EXIT_SIGTERM = 128 + signal.SIGTERM
 """The exit status of a command stopped by SIGTERM (143), as a shell reports it."""
@@ -51,6 +53,43 @@ def sigterm_as_interrupt() -> Iterator[None]:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+_HELD = (signal.SIGINT, signal.SIGTERM)
+
+
+@contextmanager
+def signals_held() -> Iterator[None]:
+    """Within the block, Ctrl-C (SIGINT) and SIGTERM wait; once it ends they are delivered
+    to the handlers of before (so :class:`Terminated` or ``KeyboardInterrupt`` is raised
+    where the block ends, not inside it).
+
+    For a start-up that an interruption would leave half-done, with nothing to close it by
+    (a Dask LocalCluster's nannies): it takes a second or two, then the usual clean-up
+    stops all of it. Only the main thread may set signal handlers; elsewhere the block
+    changes nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    received: list[int] = []
+
+    def hold(signum: int, frame: FrameType | None) -> None:
+        if signum not in received:
+            received.append(signum)
+
+    # a handler set outside Python (None) cannot be put back: that signal is left alone
+    previous = {signum: handler for signum in _HELD
+                if (handler := signal.getsignal(signum)) is not None}
+    for held in previous:
+        signal.signal(held, hold)
+    try:
+        yield
+    finally:
+        for held, handler in previous.items():
+            signal.signal(held, handler)
+        for signum in received:  # the first handler that raises ends the loop
+            signal.raise_signal(signum)
 
 
 def _watch(parent_pid: int) -> None:

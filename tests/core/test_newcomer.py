@@ -50,6 +50,29 @@ def test_every_writer_creates_a_missing_output_folder(tmp_path: Path, data: Path
     assert json.loads((new / "c" / "s.json").read_text())["split"] == SPLIT
 
 
+@pytest.mark.sim
+def test_the_writers_on_rendered_data_create_a_missing_output_folder(
+        tmp_path: Path, smoke_v2_test: Path) -> None:
+    for extra in ("cv2", "torch", "mcap"):
+        pytest.importorskip(extra)
+    new = tmp_path / "not" / "yet"
+    dets, oracle = new / "a" / "dets.jsonl", tmp_path / "oracle.jsonl"
+    assert cli("detect", "--detector", "classical", "--data", smoke_v2_test, "--out", dets,
+               "--quiet") == 0
+    assert cli("score-detections", dets, "--data", smoke_v2_test,
+               "--json", new / "b" / "s.json") == 0
+    assert cli("predict", "nsrm", "--data", smoke_v2_test, "--out", new / "c" / "p.jsonl",
+               "--quiet") == 0
+    assert cli("baseline", "oracle", "--data", smoke_v2_test, "--out", oracle) == 0
+    assert cli("replay", oracle, "--data", smoke_v2_test, "--out", new / "d" / "r.jsonl",
+               "--limit", "1", "--quiet") == 0
+    first = json.loads(oracle.read_text().splitlines()[1])["id"]
+    assert cli("export-mcap", smoke_v2_test, "--out", new / "e" / "x.mcap",
+               "--episodes", first) == 0
+    written = sorted(p.relative_to(new).as_posix() for p in new.rglob("*") if p.is_file())
+    assert written == ["a/dets.jsonl", "b/s.json", "c/p.jsonl", "d/r.jsonl", "e/x.mcap"]
+
+
 def test_a_folder_where_a_file_is_meant_is_refused_before_any_work(
         tmp_path: Path, data: Path, capsys: pytest.CaptureFixture[str]) -> None:
     folder = tmp_path / "here"
@@ -113,40 +136,167 @@ def _alive(pid: int) -> bool:
     return state != "Z"
 
 
+def _cmdline(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_text().replace("\0", " ")
+    except OSError:
+        return ""
+
+
+def _all_end(pids: set[int], within_s: float = 60) -> list[int]:
+    """The processes of ``pids`` still alive after waiting up to ``within_s`` for them."""
+    import time
+
+    deadline = time.monotonic() + within_s
+    while (left := [pid for pid in pids if _alive(pid)]) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return left
+
+
+def _generate(out: Path, *engine: str) -> list[str]:
+    """``generate`` of smoke-v2 into ``out``, a shard per episode (argv without the program):
+    each stop below leaves shards to do."""
+    return ["generate", "--split", "smoke-v2", "--out", str(out), "--shard-size", "1",
+            "--quiet", *engine]
+
+
+def _start(argv: list[str], *, session: bool = False) -> Any:
+    """The command in a new process (``session``: the leader of its own process group, as a
+    terminal's foreground job is)."""
+    import subprocess
+    import sys
+
+    return subprocess.Popen([sys.executable, "-m", "nsrmp_bench.cli.main", *argv],
+                            stderr=subprocess.PIPE, text=True, start_new_session=session)
+
+
+def _when_writing(proc: Any, out: Path, after: float) -> set[int]:
+    """Wait until a worker writes a shard begun after ``after`` (a time.time()); the run's
+    processes then."""
+    import time
+
+    deadline = time.monotonic() + 180
+    while not [t for t in out.glob("test/*.h5.tmp") if t.stat().st_mtime >= after]:
+        assert proc.poll() is None and time.monotonic() < deadline, proc.stderr
+        time.sleep(0.05)
+    return _descendants(proc.pid)
+
+
+def _resumed_to_the_committed_bytes(out: Path, *engine: str) -> None:
+    from nsrmp_bench.official_manifests import official_manifest
+
+    assert not (out / "test" / "manifest.json").exists()
+    assert main(_generate(out, *engine)) == 0
+    manifest = json.loads((out / "test" / "manifest.json").read_text())
+    committed = official_manifest("smoke-v2", "test")
+    assert committed is not None and manifest["root_hash"] == committed["root_hash"]
+    assert not list(out.glob("test/*.tmp"))
+
+
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
 def test_sigterm_stops_generate_and_its_workers_then_it_resumes(tmp_path: Path) -> None:
     pytest.importorskip("pybullet")
     import signal
-    import subprocess
-    import sys
     import time
 
     out = tmp_path / "smoke"
-    argv = [sys.executable, "-m", "nsrmp_bench.cli.main", "generate", "--split", "smoke-v2",
-            "--out", str(out), "--workers", "2", "--shard-size", "2", "--quiet"]
-    proc = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 180
-    while not list(out.glob("test/*.h5.tmp")):  # a worker is writing a shard
-        assert proc.poll() is None and time.monotonic() < deadline, proc.stderr
-        time.sleep(0.05)
-    run = _descendants(proc.pid)
+    proc = _start(_generate(out, "--workers", "2"))
+    run = _when_writing(proc, out, 0.0)
     assert len(run) >= 3  # two workers, the manager (and the resource tracker)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 143, err
     assert "stopped by SIGTERM" in err and "Traceback" not in err
-    time.sleep(1.0)
-    assert [pid for pid in run if _alive(pid)] == []
+    assert _all_end(run) == []
     assert not (out / "test" / "manifest.json").exists()
 
-    assert main(["generate", "--split", "smoke-v2", "--out", str(out), "--workers", "1",
-                 "--shard-size", "2", "--quiet"]) == 0
-    from nsrmp_bench.official_manifests import official_manifest
+    # the driver disappears (SIGKILL: no clean-up of its own): its workers notice and end
+    proc = _start(_generate(out, "--workers", "2"))
+    run = _when_writing(proc, out, time.time())
+    assert len(run) >= 3
+    proc.kill()
+    proc.communicate(timeout=60)
+    assert _all_end(run) == []
 
-    manifest = json.loads((out / "test" / "manifest.json").read_text())
-    committed = official_manifest("smoke-v2", "test")
-    assert committed is not None and manifest["root_hash"] == committed["root_hash"]
-    assert not list(out.glob("test/*.tmp"))
+    _resumed_to_the_committed_bytes(out, "--workers", "1")
+
+
+def _no_shutdown_noise(err: str) -> None:
+    """No traceback, and none of the Dask workers' complaints at being stopped mid-task."""
+    for noise in ("Traceback", "CancelledError", " - ERROR - ", "still alive after"):
+        assert noise not in err, err
+
+
+@pytest.mark.sim
+@pytest.mark.dask
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
+def test_sigterm_or_a_killed_driver_stops_the_dask_cluster_then_generate_resumes(
+        tmp_path: Path) -> None:
+    pytest.importorskip("pybullet")
+    pytest.importorskip("distributed")
+    import os
+    import signal
+    import time
+
+    out = tmp_path / "smoke"
+    dask = ("--engine", "dask", "--workers", "2")
+    proc = _start(_generate(out, *dask))
+    run = _when_writing(proc, out, 0.0)
+    workers = [pid for pid in run if "spawn_main" in _cmdline(pid)]
+    assert len(workers) == 2  # the LocalCluster's workers (its nannies run in the driver)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert "nsrmp-bench generate: stopped by SIGTERM; its workers are stopped" in err
+    _no_shutdown_noise(err)
+    assert _all_end(run) == []
+    assert not (out / "test" / "manifest.json").exists()
+
+    # Ctrl-C at a terminal reaches every process of the command: the same stop and message
+    proc = _start(_generate(out, *dask), session=True)
+    run = _when_writing(proc, out, time.time())
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "nsrmp-bench generate: stopped by Ctrl-C; its workers are stopped" in err
+    _no_shutdown_noise(err)
+    assert _all_end(run) == []
+
+    # the driver disappears (SIGKILL: no clean-up of its own): its workers notice and end
+    proc = _start(_generate(out, *dask))
+    run = _when_writing(proc, out, time.time())
+    assert len([pid for pid in run if "spawn_main" in _cmdline(pid)]) == 2
+    proc.kill()
+    proc.communicate(timeout=60)
+    assert _all_end(run) == []
+
+    _resumed_to_the_committed_bytes(out, *dask)  # the same command resumes
+
+
+@pytest.mark.sim
+@pytest.mark.dask
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
+def test_sigterm_while_the_dask_cluster_starts_stops_it_whole(smoke_v2_test: Path) -> None:
+    """Before the fix Dask's exit hook failed on the half-started nannies, with a traceback."""
+    pytest.importorskip("distributed")
+    import signal
+    import time
+
+    proc = _start(["verify", str(smoke_v2_test), "--engine", "dask", "--workers", "2"])
+    deadline = time.monotonic() + 120
+    while len([pid for pid in _descendants(proc.pid) if "spawn_main" in _cmdline(pid)]) < 2:
+        assert proc.poll() is None and time.monotonic() < deadline, proc.stderr
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGTERM)  # the LocalCluster's nannies are starting its workers
+    run: set[int] = set()
+    while proc.poll() is None and time.monotonic() < deadline:
+        run |= _descendants(proc.pid)
+        time.sleep(0.01)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert "nsrmp-bench verify: stopped by SIGTERM" in err
+    _no_shutdown_noise(err)
+    assert run and _all_end(run) == []
 
 
 # 3. A retrained model is not the shipped one -------------------------------------------

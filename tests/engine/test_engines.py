@@ -97,3 +97,25 @@ def test_an_unreachable_scheduler_is_a_clear_error(capsys: pytest.CaptureFixture
     finally:
         monkeypatch.delenv("DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT")
         dask.config.refresh()
+
+
+def test_signals_held_arrive_when_the_block_ends() -> None:
+    import signal
+
+    from nsrmp_bench.engine.signals import Terminated, signals_held, sigterm_as_interrupt
+
+    before = signal.getsignal(signal.SIGTERM)
+    finished = []
+    with sigterm_as_interrupt(), pytest.raises(Terminated):
+        with signals_held():
+            signal.raise_signal(signal.SIGTERM)
+            finished.append("start-up")  # not cut short
+        finished.append("after")  # never reached: the signal arrives as the block ends
+    assert finished == ["start-up"]
+    assert signal.getsignal(signal.SIGTERM) == before
+
+    with pytest.raises(KeyboardInterrupt), signals_held():
+        signal.raise_signal(signal.SIGINT)
+        finished.append("again")
+    assert finished == ["start-up", "again"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
