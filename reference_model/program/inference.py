@@ -36,8 +36,6 @@ from nsrmp_bench.scoring.submission import Prediction
 __all__ = ["Decoded", "Oracle", "decode", "decoded_iou_m", "decoded_predictions",
            "legal_pairs"]
 
-MAX_STEPS = 12
-WINDOW = 3
 
 
 def legal_pairs(on: Sequence[int], action: int, n: int) -> NDArray[np.bool_]:
@@ -82,25 +80,6 @@ class Decoded:
     centres: list[NDArray[np.float64]] = field(default_factory=list)
 
 
-def _cuts(splitter: Splitter, tokens: list[list[int]]) -> list[list[int]]:
-    """As many cuts as the splitter's boundary probabilities say
-    (:meth:`Splitter.boundaries`), each at the most probable token left once the
-    ``WINDOW`` tokens either side of the cuts already made are set aside (its teacher
-    spreads a boundary over the few places where the steps read the same)."""
-    probs = torch.sigmoid(splitter(pad_tokens(tokens)))
-    out = []
-    for row, tok in zip(probs, tokens, strict=True):
-        p = row[: len(tok)].clone()
-        k = min(splitter.boundaries(float(p.sum())), MAX_STEPS - 1)
-        cuts: list[int] = []
-        while len(cuts) < k and float(p.max()) > 0:
-            t = int(p.argmax())
-            cuts.append(t)
-            p[max(0, t - WINDOW) : t + WINDOW + 1] = 0.0
-        out.append(sorted(cuts))
-    return out
-
-
 @torch.no_grad()
 def decode(model: StepModel, splitter: Splitter, data: ProgramData, rule: ActionRule,
            oracle: Oracle | None = None, batch_size: int = 64) -> Decoded:
@@ -113,7 +92,7 @@ def decode(model: StepModel, splitter: Splitter, data: ProgramData, rule: Action
         rows = list(range(start, min(start + batch_size, len(data))))
         batch = EpisodeBatch(data, rows)
         cuts = ([oracle.cuts[r] for r in rows] if oracle.cuts is not None
-                else _cuts(splitter, batch.tokens))
+                else splitter.cuts(batch.tokens))
         pieces = [[tok[a:b] for a, b in zip([0, *c], [*c, len(tok)], strict=True)]
                   for tok, c in zip(batch.tokens, cuts, strict=True)]
         feats = model.perception(batch.crops, batch.mask, batch.sizes)

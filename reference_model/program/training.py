@@ -28,20 +28,10 @@ import torch
 from torch import Tensor
 
 from nsrmp_bench.reference_model.program.data import ProgramData
-from nsrmp_bench.reference_model.program.modules import Splitter, StepModel
-from nsrmp_bench.reference_model.tokens import PAD
+from nsrmp_bench.reference_model.program.modules import Splitter, StepModel, pad_tokens
 
 __all__ = ["EpisodeBatch", "episode_batch", "joint_loss", "option_scores", "pad_tokens",
            "single_loss", "teacher_cuts"]
-
-
-def pad_tokens(rows: Sequence[Sequence[int]]) -> Tensor:
-    """PAD-padded (len(rows), T) tokens."""
-    t = max(1, max((len(r) for r in rows), default=1))
-    out = torch.full((len(rows), t), PAD, dtype=torch.long)
-    for i, r in enumerate(rows):
-        out[i, : len(r)] = torch.tensor(list(r), dtype=torch.long)
-    return out
 
 
 class EpisodeBatch:
@@ -256,11 +246,19 @@ def joint_loss(model: StepModel, splitter: Splitter, data: ProgramData,
 @torch.no_grad()
 def fit_calibration(model: StepModel, splitter: Splitter, data: ProgramData,
                     rows: Sequence[int]) -> None:
-    """Fit ``splitter.calibration`` on training episodes ``rows``: least squares of the
-    splitter's summed boundary probabilities on the teacher's most probable number of
-    boundaries (0 or 1: the cut the consistent programs favour, from the boxes alone).
-    Left as it is where the fit is degenerate (fewer than ten episodes of either count,
-    or a slope below 0.1)."""
+    """Fit the splitter's rule for how many steps an instruction has on training episodes
+    ``rows``, against the teacher's most probable number of boundaries (0 or 1: the cut
+    the consistent programs favour, from the boxes alone):
+
+    - ``threshold``: the window mass a peak needs to be a boundary
+      (:meth:`Splitter.peaks`): the middle of the range of thresholds that count the most
+      episodes right (the largest peak of an instruction with no boundary below it, of one
+      with a boundary at or above it, its second peak below);
+    - ``calibration`` (a, b): least squares of the summed boundary probabilities on the
+      count (the earlier rule, kept in the checkpoint for comparison).
+
+    Left as they are where the fit is degenerate (fewer than ten episodes of either
+    count; a slope below 0.1)."""
     splitter.eval()
     posts = teacher_cuts(model, data, rows)
     kept = [(r, max(p, key=lambda x: x[1])[0] > 0) for r, p in zip(rows, posts, strict=True)
@@ -269,6 +267,15 @@ def fit_calibration(model: StepModel, splitter: Splitter, data: ProgramData,
         return
     tokens = [data.tokens[r] for r, _ in kept]
     probs = torch.sigmoid(splitter(pad_tokens(tokens)))
+    peaks = [[m for _, m in splitter.peaks(probs[i, : len(t)])] + [0.0, 0.0]
+             for i, t in enumerate(tokens)]
+    grid = torch.linspace(0.01, 0.99, 99)
+    right = torch.stack([
+        torch.tensor([(p[0] >= th) == c and p[1] < th for p, (_, c) in zip(peaks, kept,
+                                                                        strict=True)])
+        .sum() for th in grid.tolist()])
+    best = grid[right == right.max()]
+    splitter.threshold = ((best.min() + best.max()) / 2).reshape(())
     total = torch.stack([probs[i, : len(t)].sum() for i, t in enumerate(tokens)]).double()
     count = torch.tensor([float(c) for _, c in kept], dtype=torch.float64)
     x = torch.stack([count, torch.ones_like(count)], 1)
