@@ -6,9 +6,12 @@ Example::
     # with lerobot installed elsewhere:
     #   LeRobotDataset("local/smoke", root="lerobot/smoke")
 
-One frame per rendered state (fps 1), the RGB image as an image feature, the object
-poses as ``observation.state``, the move from each state as ``action`` (pick and place
-image points) and ``action.step`` (the DSL step), the instruction as the task. Written
+Teleport splits: one frame per rendered state (fps 1), the RGB image as an image
+feature, the object poses as ``observation.state``, the move from each state as
+``action`` (pick and place image points) and ``action.step`` (the DSL step). Robot splits
+(``robot-v2``): one frame per 30 Hz trajectory sample, the Panda's joint positions as
+``observation.state`` and the next sample's as ``action`` (see
+``nsrmp_bench.export.lerobot_frames``). The instruction is the task. Written
 with pyarrow and datasets (lerobot itself is not needed; see
 ``nsrmp_bench.export.lerobot``). ``DIR`` must be new or empty; the export is written to a
 temporary folder beside it and renamed when complete. Needs the ``export`` extra.

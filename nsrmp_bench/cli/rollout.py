@@ -6,10 +6,13 @@ Example::
     nsrmp-bench score oracle.closed.jsonl --data data/smoke/test
     nsrmp-bench rollout my_pkg.policies:policy --data data/smoke --part test --out p.jsonl
     nsrmp-bench rollout oracle --split smoke-v2 --part test --out p.jsonl   # generated here
+    nsrmp-bench rollout dense --boxes classical --data data/smoke/test --out dense.jsonl
 
 ``POLICY`` is ``oracle`` (the gold program, one step at a time), ``noop``, ``nsrm`` or
 ``nmn`` (a shipped program model's predicted program, one step at a time, each target
-on the real state; these read the gold boxes) or ``module:function``, any callable
+on the real state; these read the gold boxes), ``dense`` (the shipped dense baseline: a
+pick and a place point per step on the current observation; it reads the gold boxes, or
+a detector's with ``--boxes classical|learned``) or ``module:function``, any callable
 ``policy(observation) -> action`` (see ``nsrmp_bench.envs.policies``). Every instance
 runs in the Gymnasium environment ``nsrmp_bench/Tabletop-v0`` (teleport executor, or the
 Panda with ``--executor robot``) until the policy says done or the instruction's step
@@ -36,8 +39,8 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
-    parser.add_argument("policy", help="oracle, noop, nsrm, nmn, or module:function (a "
-                                       "callable policy(observation) -> action)")
+    parser.add_argument("policy", help="oracle, noop, nsrm, nmn, dense, or module:function "
+                                       "(a callable policy(observation) -> action)")
     parser.add_argument("--data", type=Path, default=None,
                         help="a generated part directory (or a split root with --part)")
     parser.add_argument("--split", default=None,
@@ -48,8 +51,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="predictions file to write (.jsonl or .parquet)")
     parser.add_argument("--executor", default="teleport", choices=("teleport", "robot"),
                         help="how moves are carried out (default teleport)")
-    parser.add_argument("--boxes", default=None, choices=("gold",),
-                        help="give the policy the current gold boxes in the observation")
+    parser.add_argument("--boxes", default=None, choices=("gold", "classical", "learned"),
+                        help="boxes in the observation: the current gold ones, or a "
+                             "detector's on the current image (nsrm, nmn, dense: gold "
+                             "unless given)")
     parser.add_argument("--step-margin", type=int, default=2,
                         help="moves allowed beyond the instruction's step count (default 2)")
     parser.add_argument("--limit", type=int, default=None,
@@ -62,12 +67,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Roll out, write the predictions and the report."""
-    from nsrmp_bench.envs.policies import BOX_READING, check_policy
+    from nsrmp_bench.envs.policies import BOX_READING, DENSE_POLICIES, check_policy
     from nsrmp_bench.envs.rollout import RolloutConfig, rollout_part
 
     check_policy(args.policy)
-    if args.policy in BOX_READING:
-        args.boxes = "gold"  # these models read the gold boxes
+    if args.boxes is None and args.policy in BOX_READING | DENSE_POLICIES:
+        args.boxes = "gold"  # these models read boxes; the gold ones unless told
+    if args.policy in BOX_READING and args.boxes != "gold":
+        msg = (f"policy {args.policy!r} issues DSL steps over the scene's objects, so it reads "
+               f"the gold boxes (scene order); --boxes {args.boxes} gives detections in score "
+               "order: drop --boxes, or roll out 'dense' on detected boxes")
+        raise InvalidArgument(msg)
     if args.data is None and args.split is None:
         msg = "give --data (a generated part) or --split (a split id, generated on the fly)"
         raise InvalidArgument(msg)

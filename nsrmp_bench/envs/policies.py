@@ -13,6 +13,11 @@ that is called at the start of every episode. Named policies:
   program, and issues it one DSL step per move; each step's target is computed by the
   environment on the real state after the previous move (closed-loop execution, the
   program is not re-planned).
+* ``dense`` (``dense-v2``; or ``dense-v1``, ``dense5x``/``dense5x-v1``): the shipped dense
+  baseline, a pick and a place point per step from the current observation, done when
+  its move would change nothing (:mod:`nsrmp_bench.envs.dense_policy`). It reads the
+  observation's boxes, gold or a detector's (``rollout`` gives the gold ones unless
+  ``--boxes`` names a detector).
 * ``module:function``: any importable callable, e.g. ``my_pkg.policies:greedy``. A class
   is instantiated with no arguments. Example::
 
@@ -28,14 +33,16 @@ from __future__ import annotations
 import importlib
 import inspect
 from collections.abc import Callable
+from functools import partial
 from typing import Any, Protocol
 
 import numpy as np
 
+from nsrmp_bench.envs.dense_policy import DENSE_POLICIES, DensePolicy
 from nsrmp_bench.errors import InvalidArgument
 
-__all__ = ["BOX_READING", "NAMED_POLICIES", "NoopPolicy", "OraclePolicy", "Policy",
-           "ProgramModelPolicy", "check_policy", "make_policy"]
+__all__ = ["BOX_READING", "DENSE_POLICIES", "NAMED_POLICIES", "NoopPolicy", "OraclePolicy",
+           "Policy", "ProgramModelPolicy", "check_policy", "make_policy"]
 
 BOX_READING = frozenset({"nsrm", "nsrm-v1", "nsrm-v2", "nmn", "nmn-v1", "nmn-v2"})
 """Named policies that read the gold boxes (the environment needs ``boxes="gold"``)."""
@@ -115,6 +122,10 @@ class NoopPolicy:
         return {"done": 1}
 
 
+def _dense(model_id: str, env: Any) -> Policy:
+    return DensePolicy(env, model_id)
+
+
 NAMED_POLICIES: dict[str, Callable[[Any], Policy]] = {
     "oracle": OraclePolicy,
     "noop": lambda env: NoopPolicy(),
@@ -124,6 +135,7 @@ NAMED_POLICIES: dict[str, Callable[[Any], Policy]] = {
     "nmn": lambda env: ProgramModelPolicy(env, "nmn"),
     "nmn-v1": lambda env: ProgramModelPolicy(env, "nmn-v1"),
     "nmn-v2": lambda env: ProgramModelPolicy(env, "nmn-v2"),
+    **{name: partial(_dense, name) for name in sorted(DENSE_POLICIES)},
 }
 """Policy name -> factory taking the environment."""
 

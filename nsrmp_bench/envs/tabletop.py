@@ -22,7 +22,12 @@ environment's random generator.
 metres, ``instruction`` (text), ``camera`` (``intrinsics`` 3x3, ``extrinsics`` 4x4
 world-to-camera); with ``boxes="gold"`` also ``boxes`` ``(15, 4)`` float32 (the current
 amodal boxes, pixel xyxy, scene order, zero rows past the last object) and
-``object_mask`` ``(15,)`` (1 for a real object).
+``object_mask`` ``(15,)`` (1 for a real object); with ``boxes="classical"`` or
+``boxes="learned"`` a detector (``classical-v1``, or ``detector-v1``'s shipped checkpoint)
+runs on the current RGB-D at every observation: ``boxes`` are its detections in score
+order (not scene order), ``object_mask`` marks them, and ``box_scores`` ``(15,)`` holds
+their confidences (only a detector's observation space has it). See
+:mod:`nsrmp_bench.envs.observed_boxes`.
 
 **Action** (the action space): ``{"pick": (u, v), "place": (u, v), "done": 0 or 1}`` in
 pixels, the convention of Ravens and CLIPort: the object seen at the pick point is moved
@@ -61,6 +66,15 @@ from numpy.typing import NDArray
 
 from nsrmp_bench.dsl.actions import step_problem, target_pose
 from nsrmp_bench.dsl.program import GroundedStep
+from nsrmp_bench.envs.observed_boxes import (
+    BOXES,
+    DETECTOR_BOXES,
+    Detector,
+    check_boxes,
+    detected_rows,
+    make_detector,
+    space_entries,
+)
 from nsrmp_bench.envs.placing import check_point, picked_object, place_target
 from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import InvalidAction, InvalidArgument, ResetNeeded, UnknownId
@@ -75,7 +89,6 @@ from nsrmp_bench.vocabulary import ACTIONS, MAX_OBJECTS, TABLE_TOP_Z
 __all__ = ["BOXES", "EXECUTORS", "INSTRUCTION_CHARSET", "TabletopEnv"]
 
 EXECUTORS: Final = ("teleport", "robot")
-BOXES: Final = (None, "gold")
 INSTRUCTION_CHARSET: Final = frozenset(string.printable)
 MAX_INSTRUCTION: Final = 1000
 _FLOOR_Z: Final = TABLE_TOP_Z - 0.105  # an object below this has left the table
@@ -167,9 +180,7 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         profile: str = "fast",
         render_mode: str | None = None,
     ) -> None:
-        if boxes not in BOXES:
-            msg = f"boxes={boxes!r} is not one of {list(BOXES)}; use None or 'gold'"
-            raise InvalidArgument(msg)
+        boxes = check_boxes(boxes)
         if executor not in EXECUTORS:
             msg = (f"executor={executor!r} is not one of {list(EXECUTORS)}; use 'teleport' "
                    "(place and settle) or 'robot' (the Panda picks and places)")
@@ -182,6 +193,8 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
             raise InvalidArgument(msg)
         self.source = _Source(data, split, part)
         self.boxes_mode = boxes
+        self._detector: Detector | None = (make_detector(boxes) if boxes in DETECTOR_BOXES
+                                           else None)
         self.executor = executor
         self.step_margin = int(step_margin)
         self.profile = profile
@@ -221,10 +234,7 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
                 "extrinsics": spaces.Box(-inf, inf, (4, 4), np.float64),
             }),
         }
-        if self.boxes_mode == "gold":
-            high = np.tile(np.array([w, h, w, h], np.float32), (MAX_OBJECTS, 1))
-            entries["boxes"] = spaces.Box(np.zeros_like(high), high, dtype=np.float32)
-            entries["object_mask"] = spaces.MultiBinary(MAX_OBJECTS)
+        entries.update(space_entries(self.boxes_mode, w, h, MAX_OBJECTS))
         return spaces.Dict(entries)
 
     # -- the world -----------------------------------------------------------------------
@@ -467,6 +477,11 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
             mask[:n] = 1
             obs["boxes"] = boxes
             obs["object_mask"] = mask
+        elif self._detector is not None:
+            found = self._detector(self._images.rgb, np.asarray(self._images.depth,
+                                                                dtype=np.float32), cam)
+            obs["boxes"], obs["object_mask"], obs["box_scores"] = detected_rows(
+                found, MAX_OBJECTS, cam.width, cam.height)
         return obs
 
     def _scores(self) -> tuple[bool, float]:

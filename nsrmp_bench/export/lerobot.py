@@ -12,15 +12,11 @@ for ``codebase_version`` ``v3.0`` is written here::
     OUT/data/chunk-000/file-000.parquet          one row per frame, images embedded
 
 Images are ``image`` features stored in the data Parquet (the layout's non-video mode;
-``video_path`` is null), encoded by ``datasets``' Image feature as lerobot does.
-One frame per rendered state (teleport semantics, ``fps`` 1): ``observation.state`` is
-every object's pose (position xyz + quaternion xyzw, scene order, zero rows past the
-last object, 15 x 7), ``action`` the move made from that state as image points
-(pick u, v = the moved object's box centre before, place u, v = after; zeros on the
-last frame), ``action.step`` the DSL step (action index, subject, reference; -1 on the
-last frame), ``next.done`` true on the last frame. The task is the instruction. Each
-split part is one lerobot ``split`` (``info.json`` ``splits``), episodes in part order.
-The robot's joint trajectories of robot parts are not exported (see the README).
+``video_path`` is null), encoded by ``datasets``' Image feature as lerobot does. The
+frames and features of teleport splits (one frame per rendered state, ``fps`` 1) and of
+robot splits (the Panda's joint positions at 30 Hz as state and action) are in
+:mod:`nsrmp_bench.export.lerobot_frames`. The task is the instruction. Each split part is
+one lerobot ``split`` (``info.json`` ``splits``), episodes in part order.
 """
 
 from __future__ import annotations
@@ -38,41 +34,20 @@ from nsrmp_bench._optional import require
 from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.export.episodes import split_parts
+from nsrmp_bench.export.lerobot_frames import (
+    FPS,
+    IMAGE_KEY,
+    episode_frames,
+    lerobot_features,
+    split_kind,
+)
 from nsrmp_bench.export.staging import staged_folder
-from nsrmp_bench.geometry.boxes import box_centres
-from nsrmp_bench.vocabulary import ACTIONS, MAX_OBJECTS
 
-__all__ = ["CODEBASE_VERSION", "export_lerobot", "lerobot_features"]
+__all__ = ["CODEBASE_VERSION", "export_lerobot", "read_info"]
 
 CODEBASE_VERSION: Final = "v3.0"
-FPS: Final = 1
 DATA_PATH: Final = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
 EPISODES_PATH: Final = "meta/episodes/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
-IMAGE_KEY: Final = "observation.images.rgb"
-_POSE = ("x", "y", "z", "qx", "qy", "qz", "qw")
-
-
-def lerobot_features(height: int, width: int) -> dict[str, dict[str, Any]]:
-    """The ``features`` block of ``info.json``."""
-    return {
-        IMAGE_KEY: {"dtype": "image", "shape": [height, width, 3],
-                    "names": ["height", "width", "channels"]},
-        "observation.state": {
-            "dtype": "float32", "shape": [MAX_OBJECTS * 7],
-            "names": [f"object{i}.{c}" for i in range(MAX_OBJECTS) for c in _POSE]},
-        "action": {"dtype": "float32", "shape": [4],
-                   "names": ["pick_u", "pick_v", "place_u", "place_v"]},
-        "action.step": {"dtype": "int64", "shape": [3],
-                        "names": ["action", "subject", "reference"]},
-        "next.done": {"dtype": "bool", "shape": [1], "names": None},
-        "timestamp": {"dtype": "float32", "shape": [1], "names": None},
-        "frame_index": {"dtype": "int64", "shape": [1], "names": None},
-        "episode_index": {"dtype": "int64", "shape": [1], "names": None},
-        "index": {"dtype": "int64", "shape": [1], "names": None},
-        "task_index": {"dtype": "int64", "shape": [1], "names": None},
-    }
-
-
 def _hf_features(features: dict[str, dict[str, Any]]) -> Any:
     """The ``datasets.Features`` lerobot derives from ``info.json`` features."""
     ds = require("datasets")
@@ -85,32 +60,6 @@ def _hf_features(features: dict[str, dict[str, Any]]) -> Any:
         else:
             out[key] = ds.List(ds.Value(ft["dtype"]), length=ft["shape"][0])
     return ds.Features(out)
-
-
-def episode_frames(episode: Episode) -> dict[str, Any]:
-    """Per-frame columns of one episode (without the global indices)."""
-    rendering = episode.rendering
-    if rendering is None or rendering.observations is None:
-        msg = (f"episode {episode.id} has no rendered images; export-lerobot needs a "
-               "rendered split")
-        raise InvalidArgument(msg)
-    sym = episode.symbolic
-    poses = np.asarray(rendering.targets.poses, dtype=np.float32)  # (S+1, N, 7)
-    boxes = np.asarray(rendering.targets.boxes_amodal, dtype=np.float64)
-    frames = poses.shape[0]
-    n = poses.shape[1]
-    state = np.zeros((frames, MAX_OBJECTS * 7), dtype=np.float32)
-    state[:, : n * 7] = poses.reshape(frames, n * 7)
-    action = np.zeros((frames, 4), dtype=np.float32)
-    step = np.full((frames, 3), -1, dtype=np.int64)
-    for k, g in enumerate(sym.grounded):
-        action[k, :2] = box_centres(boxes[k, g.subject])
-        action[k, 2:] = box_centres(boxes[k + 1, g.subject])
-        step[k] = (ACTIONS.index(g.action), g.subject, g.reference)
-    done = np.zeros(frames, dtype=bool)
-    done[-1] = True
-    return {"rgb": np.asarray(rendering.observations.rgb), "state": state,
-            "action": action, "step": step, "done": done}
 
 
 def _stats(values: NDArray[Any]) -> dict[str, Any]:
@@ -142,13 +91,14 @@ def export_lerobot(data: str | os.PathLike[str], out: str | os.PathLike[str], *,
     pa = require("pyarrow")
     pq = require("pyarrow.parquet")
     arrow_writer = require("datasets.arrow_writer")
+    image_feature = require("datasets").Image()
     parts = split_parts(data)
     features: dict[str, dict[str, Any]] | None = None
+    kind = "teleport"
+    joint_names: tuple[str, ...] = ()
     tasks: dict[str, int] = {}
     episodes_rows: list[dict[str, Any]] = []
-    columns: dict[str, list[NDArray[Any]]] = {
-        k: [] for k in ("state", "action", "step", "done", "timestamp", "frame_index",
-                        "episode_index", "index", "task_index")}
+    columns: dict[str, list[NDArray[Any]]] = {}
     img_sum = np.zeros(3)
     img_sq = np.zeros(3)
     img_lo = np.full(3, 255.0)
@@ -165,42 +115,51 @@ def export_lerobot(data: str | os.PathLike[str], out: str | os.PathLike[str], *,
             for part in parts:
                 first = ep_index
                 for ep in part.episodes(images=True):
-                    fr = episode_frames(ep)
-                    height, width = fr["rgb"].shape[1:3]
                     if features is None:
-                        features = lerobot_features(height, width)
+                        kind = split_kind(ep)
+                        joint_names = _joint_names(ep)
+                    elif _joint_names(ep) != joint_names:
+                        msg = (f"episode {ep.id} names its joints {list(_joint_names(ep))}, "
+                               f"earlier episodes {list(joint_names)}; export one robot's "
+                               "split at a time")
+                        raise InvalidArgument(msg)
+                    fr = episode_frames(ep, kind)
+                    height, width = fr.images.shape[1:3]
+                    if features is None:
+                        features = lerobot_features(kind, height, width, joint_names)
                         writer = arrow_writer.ParquetWriter(
                             path=str(data_file), features=_hf_features(features))
-                    length = len(fr["done"])
+                    length = len(fr)
                     task = ep.symbolic.instruction.text
                     task_index = tasks.setdefault(task, len(tasks))
                     cols = {
-                        "timestamp": np.arange(length, dtype=np.float32) / FPS,
+                        "timestamp": np.arange(length, dtype=np.float32) / FPS[kind],
                         "frame_index": np.arange(length, dtype=np.int64),
                         "episode_index": np.full(length, ep_index, dtype=np.int64),
                         "index": np.arange(index, index + length, dtype=np.int64),
                         "task_index": np.full(length, task_index, dtype=np.int64),
                     }
+                    cols.update(fr.columns)
+                    # each rendered image PNG-encoded once (as datasets' Image feature
+                    # encodes an array), however many frames show it
+                    encoded = [image_feature.encode_example(img) for img in fr.images]
                     for k in range(length):
                         assert writer is not None
-                        writer.write({
-                            IMAGE_KEY: fr["rgb"][k],
-                            "observation.state": fr["state"][k],
-                            "action": fr["action"][k],
-                            "action.step": fr["step"][k],
-                            "next.done": bool(fr["done"][k]),
-                            **{name: col[k].item() for name, col in cols.items()},
-                        })
-                    for key in ("state", "action", "step", "done"):
-                        columns[key].append(fr[key])
+                        writer.write({IMAGE_KEY: encoded[int(fr.image_of[k])], **{
+                            name: (col[k].item() if col.ndim == 1 else col[k])
+                            for name, col in cols.items()}})
                     for key, col in cols.items():
-                        columns[key].append(col)
-                    rgb = fr["rgb"].reshape(-1, 3).astype(np.float64)
-                    img_sum += rgb.sum(axis=0)
-                    img_sq += (rgb**2).sum(axis=0)
-                    img_lo = np.minimum(img_lo, rgb.min(axis=0))
-                    img_hi = np.maximum(img_hi, rgb.max(axis=0))
-                    pixels += rgb.shape[0]
+                        columns.setdefault(key, []).append(col)
+                    shown = np.bincount(fr.image_of, minlength=len(fr.images))
+                    for img, times in zip(fr.images, shown, strict=True):
+                        if times == 0:
+                            continue
+                        rgb = img.reshape(-1, 3).astype(np.float64)
+                        img_sum += times * rgb.sum(axis=0)
+                        img_sq += times * (rgb**2).sum(axis=0)
+                        img_lo = np.minimum(img_lo, rgb.min(axis=0))
+                        img_hi = np.maximum(img_hi, rgb.max(axis=0))
+                        pixels += int(times) * rgb.shape[0]
                     episodes_rows.append({
                         "episode_index": ep_index, "tasks": [task], "length": length,
                         "data/chunk_index": 0, "data/file_index": 0,
@@ -221,15 +180,8 @@ def export_lerobot(data: str | os.PathLike[str], out: str | os.PathLike[str], *,
             msg = f"{data} holds no episode; generate the split first"
             raise InvalidArgument(msg)
         cat = {k: np.concatenate(v) for k, v in columns.items()}
-        stats = {
-            IMAGE_KEY: _image_stats(img_sum, img_sq, img_lo, img_hi, pixels, index),
-            "observation.state": _stats(cat["state"]),
-            "action": _stats(cat["action"]),
-            "action.step": _stats(cat["step"]),
-            "next.done": _stats(cat["done"].astype(np.float64)),
-            **{k: _stats(cat[k]) for k in ("timestamp", "frame_index", "episode_index",
-                                           "index", "task_index")},
-        }
+        stats = {IMAGE_KEY: _image_stats(img_sum, img_sq, img_lo, img_hi, pixels, index),
+                 **{k: _stats(cat[k]) for k in features if k != IMAGE_KEY}}
         meta = tmp / "meta"
         (meta / "episodes" / "chunk-000").mkdir(parents=True)
         pq.write_table(pa.Table.from_pylist(episodes_rows),
@@ -247,16 +199,26 @@ def export_lerobot(data: str | os.PathLike[str], out: str | os.PathLike[str], *,
             "chunks_size": 1000,
             "data_files_size_in_mb": 100,
             "video_files_size_in_mb": 500,
-            "fps": FPS,
+            "fps": FPS[kind],
             "splits": splits,
             "data_path": DATA_PATH,
             "video_path": None,
             "features": features,
-            "nsrmp_bench": {"split": parts[0].split, "frames": "one per rendered state"},
+            "nsrmp_bench": {"split": parts[0].split, "executor": kind, "frames": (
+                "one per rendered state" if kind == "teleport" else
+                "one per 30 Hz robot sample, then one on the final state")},
         }
         (meta / "info.json").write_text(json.dumps(info, indent=4) + "\n", "utf-8")
         (meta / "stats.json").write_text(json.dumps(stats, indent=4) + "\n", "utf-8")
     return info
+
+
+def _joint_names(episode: Episode) -> tuple[str, ...]:
+    r = episode.rendering
+    if r is None or r.trajectory is None:
+        return ()
+    traj = r.trajectory
+    return traj.joint_names or tuple(f"joint{j}" for j in range(traj.joint_positions.shape[1]))
 
 
 def read_info(root: str | os.PathLike[str]) -> dict[str, Any]:
