@@ -17,13 +17,14 @@ import importlib.metadata
 import os
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from nsrmp_bench import __version__
 from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.dispatch import dispatch_versions
 from nsrmp_bench.engine import Engine, TaskReport, open_engine
 from nsrmp_bench.episode import Episode, SeedInfo
+from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.generators.sampler import AttemptLog, first_valid, sample_symbolic
 from nsrmp_bench.split_specs import SplitSpec, load_split, resolve_split
 from nsrmp_bench.storage.manifest import Manifest
@@ -31,19 +32,42 @@ from nsrmp_bench.storage.records import ShardRecord
 from nsrmp_bench.storage.resume import scan_output, write_manifest
 from nsrmp_bench.storage.writer import ShardWriter
 
+if TYPE_CHECKING:
+    from nsrmp_bench.generators.world.realise import Placer
+
 __all__ = [
     "DEFAULT_SHARD_SIZE",
+    "EXECUTORS",
     "generate_part",
     "generate_shard",
     "generate_split",
     "make_episode",
     "physics_fingerprint",
+    "placer",
     "realise_config",
     "versions",
 ]
 
 DEFAULT_SHARD_SIZE = 100
 MAX_ATTEMPTS = 64
+EXECUTORS = ("teleport", "robot")
+"""What a split's ``executor`` can name: teleport-and-settle, or the Panda's pick-and-place."""
+
+
+def placer(executor: str) -> Placer:
+    """A fresh placer for ``executor`` (one of :data:`EXECUTORS`): what carries out each step
+    when :func:`~nsrmp_bench.generators.world.realise.realise` realises an episode."""
+    if executor == "teleport":
+        from nsrmp_bench.generators.world.realise import TeleportPlacer
+
+        return TeleportPlacer()
+    if executor == "robot":
+        from nsrmp_bench.generators.robot.realise import RobotPlacer
+
+        return RobotPlacer()
+    msg = (f"unknown executor {executor!r}; expected one of {list(EXECUTORS)} ('teleport': "
+           "teleport and settle, 'robot': Panda pick-and-place): fix the split spec's executor")
+    raise InvalidArgument(msg)
 
 
 def realise_config(
@@ -59,10 +83,12 @@ def realise_config(
     """The first attempt of instance ``index`` that samples and realises without rejection."""
     from nsrmp_bench.generators.world.realise import realise
 
+    placer(executor)  # an unknown executor is refused before any sampling
+
     def attempt(seed: SeedInfo) -> Episode:
         symbolic = sample_symbolic(config, seed, episode_id)
         rendering = realise(symbolic.scene, symbolic.states, symbolic.grounded, world,
-                            executor=executor)
+                            placer=placer(executor))
         return Episode(symbolic, rendering)
 
     return first_valid(entropy, index, attempt, max_attempts=MAX_ATTEMPTS, log=stats,

@@ -34,7 +34,6 @@ import torch
 from torch import Tensor, nn
 
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.reference_model.checkpoints import load_checkpoint, save_checkpoint
 from nsrmp_bench.reference_model.contract import Kind, ModelConfig
 from nsrmp_bench.reference_model.tokens import Vocabulary
@@ -231,9 +230,10 @@ class PredictionModel(LearnedModel):
     """A model that writes the public predictions format (kinds program and dense)."""
 
     @abstractmethod
-    def predict(self, items: Sequence[dict[str, Any]], camera: Camera) -> Iterator[Prediction]:
-        """Predictions for dataset items (``{"id", "inputs"}``; never ``targets``);
-        ``camera`` back-projects positions."""
+    def predict(self, items: Sequence[dict[str, Any]]) -> Iterator[Prediction]:
+        """Predictions for dataset items (``{"id", "inputs"}``; never ``targets``); the
+        camera that back-projects positions is the items' own
+        (:func:`~nsrmp_bench.dataset.shared_camera`)."""
 
 
 class ProgramPredictionModel(PredictionModel):
@@ -243,6 +243,5 @@ class ProgramPredictionModel(PredictionModel):
     kind: ClassVar[Kind] = Kind.PROGRAM
 
     @abstractmethod
-    def programs(self, items: Sequence[dict[str, Any]],
-                 camera: Camera) -> list[list[tuple[int, int, int]]]:
+    def programs(self, items: Sequence[dict[str, Any]]) -> list[list[tuple[int, int, int]]]:
         """Per item, its predicted steps ``[(action index, subject, base), ...]``."""

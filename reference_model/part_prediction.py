@@ -90,7 +90,7 @@ def predict_part(model_name: str, data: Path, out: Path,
     ``boxes``),
     the file written and the number of episodes.
     """
-    from nsrmp_bench.dataset import EpisodeDataset
+    from nsrmp_bench.dataset import EpisodeDataset, shared_camera
     from nsrmp_bench.reference_model.predictions import write_model_predictions
     from nsrmp_bench.reference_model.registry import load_predictor
 
@@ -100,11 +100,7 @@ def predict_part(model_name: str, data: Path, out: Path,
     model = load_predictor(model_name, checkpoint)
     ds = EpisodeDataset(resolve_part(data))
     items = [ds[i] for i in range(len(ds))]
-    first = ds.collection.episode(0, images=False).rendering
-    if first is None:
-        msg = (f"{data} holds symbolic episodes without rendering; the learned models "
-               "read the initial image and boxes: generate the split with rendering")
-        raise InvalidArgument(msg)
+    shared_camera(items)  # a part without rendering is refused before any work
     model_id = str(model.model_id)
     extra: dict[str, object] = {"checkpoint": model.checkpoint.name}
     label = name or (checkpoint_label(model_id, Path(checkpoint)) if checkpoint is not None
@@ -116,18 +112,18 @@ def predict_part(model_name: str, data: Path, out: Path,
         model_id = label
     predictions: Iterator[Any]
     if boxes is None:
-        predictions = model.predict(items, first.camera)
+        predictions = model.predict(items)
     else:
         items, detected, detector = with_detected_boxes(items, boxes, ds.collection.split)
         model_id = f"{model_id}+{detector}"
         extra.update({"boxes": detector, "detections_file": boxes.name})
-        predictions = _on_detections(model, items, detected, first.camera)
+        predictions = _on_detections(model, items, detected)
     written = write_model_predictions(out, ds.collection.split, model_id, predictions, extra)
     return model_id, written, len(items)
 
 
-def _on_detections(model: PredictionModel, items: list[dict[str, Any]], detected: dict[str, Any],
-                   camera: Any) -> Iterator[Any]:
+def _on_detections(model: PredictionModel, items: list[dict[str, Any]], detected: dict[str, Any]
+                   ) -> Iterator[Any]:
     """The model's predictions with their detections; a scene with nothing detected gets
     an empty prediction (no objects, no steps) without running the model."""
     import numpy as np
@@ -135,7 +131,7 @@ def _on_detections(model: PredictionModel, items: list[dict[str, Any]], detected
     from nsrmp_bench.scoring.submission import Prediction
 
     seen = [it for it in items if len(detected[str(it["id"])])]
-    made = {p.id: p for p in model.predict(seen, camera)} if seen else {}
+    made = {p.id: p for p in model.predict(seen)} if seen else {}
     for it in items:
         eid = str(it["id"])
         if eid in made:

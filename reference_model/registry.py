@@ -119,8 +119,9 @@ def load_model(name: str, checkpoint: str | Path | None = None) -> LearnedModel:
 
     ``name`` is an id (``nsrm-v1``) or a bare name (``nsrm``, its latest version). What the
     model runs depends on its ``kind``: program and dense models are
-    :class:`~.base.PredictionModel` (``predict(items, camera)``; see :func:`load_predictor`),
-    the detector has ``detect_part(data)``, the reconstruction network ``chain(...)``."""
+    :class:`~.base.PredictionModel` (``predict(items)``; see :func:`load_predictor`), the
+    detector has ``detect(items)`` and ``detect_part(data)``, the reconstruction network
+    ``reconstruct(item, step_boxes)`` and ``chain(...)``; items are ``EpisodeDataset``'s."""
     from nsrmp_bench.reference_model.checkpoints import shipped_checkpoint
 
     entry = get_model(name)

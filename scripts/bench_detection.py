@@ -53,28 +53,30 @@ def throughput(detector: str, data: Path, n: int = 64) -> dict[str, float]:
     """The detector alone on (up to) ``n`` images already in memory: images per wall second and
     per process CPU second (on a shared machine the CPU figure is the stable one; a quiet
     2-core machine runs the learned detector's 2 threads at about twice it)."""
+    from nsrmp_bench.storage.reader import input_camera
     from nsrmp_bench.storage.reader import open as open_collection
 
     if detector == "learned":
+        from nsrmp_bench.dataset import EpisodeDataset
         from nsrmp_bench.reference_model.checkpoints import shipped_checkpoint
-        from nsrmp_bench.reference_model.detector import DetectorPredictor
+        from nsrmp_bench.reference_model.detector import DetectorPredictor, detect_scenes
         from nsrmp_bench.reference_model.detector.scenes import read_scenes
 
         model = DetectorPredictor.from_checkpoint(shipped_checkpoint("detector-v1"))
-        scenes = read_scenes(data, targets=False, limit=n)
-        model.detect(read_scenes(data, targets=False, limit=8))  # warm up
+        ds = EpisodeDataset(data)
+        scenes = read_scenes(ds.iter_items(n), targets=False)
+        model.detect(ds.iter_items(8))  # warm up
         t0, c0 = time.perf_counter(), time.process_time()
-        model.detect(scenes)
+        detect_scenes(model.model, scenes, model.config)
         count = len(scenes)
     else:
         from nsrmp_bench.detection.classical import classical_detect
 
         col = open_collection(data)
-        camera = col.episode(0, images=False).rendering.camera  # type: ignore[union-attr]
         inputs = [col.read_inputs(i) for i in range(min(n, len(col)))]
         t0, c0 = time.perf_counter(), time.process_time()
         for x in inputs:
-            classical_detect(str(x["id"]), x["rgb"], x["depth"], camera)
+            classical_detect(str(x["id"]), x["rgb"], x["depth"], input_camera(x, x["id"]))
         count = len(inputs)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     return {"images_per_wall_s": count / wall, "images_per_cpu_s": count / cpu}

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from nsrmp_bench.cli.main import main as cli
-from nsrmp_bench.reference_model.program.data import part_camera, read_items
+from nsrmp_bench.reference_model.program.data import read_items
 from nsrmp_bench.reference_model.program.inference import Oracle
 from nsrmp_bench.reference_model.registry import load_model
 from nsrmp_bench.reference_model.tokens import tokenise
@@ -95,7 +95,6 @@ def main() -> int:
     part = resolve_part(args.data)
     model = load_model(args.model, args.checkpoint)
     items, ds = read_items(part)
-    camera = part_camera(part)
     split = ds.collection.split
     connectors = _connectors()
     cuts, actions, grounding = [], [], []
@@ -120,7 +119,7 @@ def main() -> int:
     for i, (name, oracle) in enumerate(rungs):
         pred = out_dir / f"rung{i}.jsonl"
         write_model_predictions(pred, split, model.model_id,
-                                model.predict(items, camera, oracle), {"rung": name})
+                                model.predict(items, oracle), {"rung": name})
         s = _score(pred, part, out_dir)
         summ = s["summary"]
         rows.append((name, summ["iou_m"]["value"], summ["program_exact"]["value"],

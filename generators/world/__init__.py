@@ -9,8 +9,9 @@ Modules (import them by name; this package imports nothing heavy on its own):
   every instance and rebuilt with the table, the Panda and the instance's objects;
   settling; TinyRenderer renders;
 * :mod:`.targets`: amodal and visible boxes, visible fractions, centre depths;
-* :mod:`.realise`: :func:`~.realise.realise`, teleport-and-settle execution of a
-  symbolic episode with typed rejections (:class:`~.realise.PhysicsRejection`);
+* :mod:`.realise`: :func:`~.realise.realise`, the execution of a symbolic episode with
+  typed rejections (:class:`~.realise.PhysicsRejection`), each step carried out by a
+  placer (:class:`~.realise.TeleportPlacer`: teleport-and-settle, the default);
 * :mod:`.contact_sheet`: :func:`~.contact_sheet.contact_sheet`, one PNG-able picture of
   an episode (also ``nsrmp-bench show``).
 

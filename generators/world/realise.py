@@ -1,9 +1,12 @@
-"""Turn a symbolic episode into a physical, rendered one by teleport-and-settle.
+"""Turn a symbolic episode into a physical, rendered one: place, settle, check, render.
 
 :func:`realise` places the initial objects at their symbolic poses (a hair above, then
-lets physics settle), then for each grounded step teleports the moved object to its
-symbolic target pose, a hair above, and settles again. Every state (the initial one and
-the one after each step) is rendered and measured. An instance is rejected with a
+lets physics settle), then for each grounded step has its :class:`Placer` put the moved
+object at its symbolic target pose and settles again. The :class:`TeleportPlacer` (the
+default) teleports it there, a hair above; the robot's placer
+(:class:`nsrmp_bench.generators.robot.realise.RobotPlacer`) has the Panda carry it. Every
+state (the initial one and the one after each step) is rendered and measured, whichever
+placer moved the objects. An instance is rejected with a
 :class:`PhysicsRejection` whose ``reason`` is one of :data:`REJECTION_REASONS`:
 
 * ``penetration``: a placed object overlaps another object (or the table) by more than
@@ -31,7 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
-from typing import Any, Final
+from typing import Any, Final, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,7 +45,7 @@ from nsrmp_bench.errors import GenerationError, InvalidArgument
 from nsrmp_bench.generators.world.targets import frame_targets
 from nsrmp_bench.generators.world.world import TABLE_HALF_SIZE, World
 from nsrmp_bench.geometry.camera import Camera
-from nsrmp_bench.scene import Scene, State
+from nsrmp_bench.scene import Pose, Scene, State
 from nsrmp_bench.vocabulary import TABLE_TOP_Z
 
 __all__ = [
@@ -50,12 +53,15 @@ __all__ = [
     "EXECUTOR",
     "REJECTION_REASONS",
     "PhysicsRejection",
+    "Placer",
+    "TeleportPlacer",
     "Tolerances",
     "realise",
     "tilt_deg",
 ]
 
 EXECUTOR: Final = "teleport"
+"""The ``Rendering.executor`` of teleport-and-settle episodes (:class:`TeleportPlacer`)."""
 REJECTION_REASONS: Final = (
     "penetration", "off_table", "unsettled", "fell", "toppled", "disturbed", "occluded",
 )
@@ -122,6 +128,44 @@ class Tolerances:
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able form."""
         return asdict(self)
+
+
+class Placer(Protocol):
+    """How :func:`realise` carries out each step's placement (the initial scene is always
+    placed by teleport); the checks, renders and measurements are the same for every placer.
+
+    ``begin`` starts an episode, ``place`` puts the object ``index`` moved by step ``step``
+    (0-based) at its symbolic target ``pose`` (``lift``: the drop height a teleport uses),
+    and ``finish`` adds what the placer recorded to the episode's rendering.
+    """
+
+    @property
+    def executor(self) -> str:
+        """The ``Rendering.executor`` value of the episodes it realises."""
+        ...
+
+    def begin(self, world: World) -> None: ...
+
+    def place(self, world: World, step: int, index: int, pose: Pose, lift: float) -> None: ...
+
+    def finish(self, world: World, rendering: Rendering) -> Rendering: ...
+
+
+class TeleportPlacer:
+    """Teleport-and-settle: the moved object appears a hair above its target and drops."""
+
+    executor: Final = EXECUTOR
+
+    def begin(self, world: World) -> None:
+        """Nothing to reset."""
+
+    def place(self, world: World, step: int, index: int, pose: Pose, lift: float) -> None:
+        """Teleport object ``index`` to ``pose``, ``lift`` above it."""
+        world.place(index, pose, lift=lift)
+
+    def finish(self, world: World, rendering: Rendering) -> Rendering:
+        """The rendering as it is."""
+        return rendering
 
 
 def _label(scene: Scene, i: int) -> str:
@@ -266,31 +310,20 @@ def realise(
     tolerances: Tolerances | None = None,
     render: bool = True,
     composite: bool = True,
-    executor: str = EXECUTOR,
+    placer: Placer | None = None,
 ) -> Rendering:
     """Realise ``scene`` through the symbolic ``states`` (``len(grounded) + 1`` of them)
     in ``world``: place, settle, check, render and measure every state.
 
-    ``grounded[k].subject`` is the object moved by step k; it is placed at its pose in
-    ``states[k + 1]``. Raises :class:`PhysicsRejection` (reason recorded) when a check
-    fails and :class:`InvalidArgument` when the inputs do not fit together.
+    ``grounded[k].subject`` is the object moved by step k; ``placer`` (default
+    :class:`TeleportPlacer`) places it at its pose in ``states[k + 1]``. Raises
+    :class:`PhysicsRejection` (reason recorded) when a check fails and
+    :class:`InvalidArgument` when the inputs do not fit together.
     ``render=False`` skips the images (targets then hold NaN boxes) for physics-only runs.
     ``composite`` renders the objects over a cached image of the empty scene (3x faster;
     see :meth:`World.render`); ``composite=False`` renders every image in full.
-    ``executor`` is ``"teleport"`` (place and settle) or ``"robot"`` (the Panda carries out
-    every step by pick-and-place, same checks and renders, trajectory recorded; see
-    :func:`~nsrmp_bench.generators.robot.realise.realise_with_robot`).
     """
-    if executor == "robot":
-        from nsrmp_bench.generators.robot.realise import realise_with_robot
-
-        return realise_with_robot(scene, states, grounded, world, min_visible=min_visible,
-                                  camera=camera, tolerances=tolerances, render=render,
-                                  composite=composite)
-    if executor != EXECUTOR:
-        msg = (f"unknown executor {executor!r}; expected {EXECUTOR!r} (teleport and settle) "
-               "or 'robot' (Panda pick-and-place)")
-        raise InvalidArgument(msg)
+    placer = TeleportPlacer() if placer is None else placer
     tol = Tolerances() if tolerances is None else tolerances
     cam = world.camera if camera is None else camera
     n = len(scene)
@@ -314,6 +347,7 @@ def realise(
     # renders hide it, so it is loaded without visuals (same physics, half the reset)
     world.begin(scene.objects,
                 scenery_visuals=render and not (composite and world.has_background(cam)))
+    placer.begin(world)
     if composite and render:
         world.prepare_background(cam)
     extents = np.array([o.extents for o in scene.objects], dtype=np.float64).reshape(n, 3)
@@ -340,7 +374,7 @@ def realise(
                 subject = grounded[k - 1].subject
                 placed = [subject]
                 _check_target_on_table(scene, k, subject, states[k])
-                world.place(subject, states[k][subject], lift=tol.lift)
+                placer.place(world, k - 1, subject, states[k][subject], tol.lift)
             pen = _check_penetration(scene, world, k, placed, tol)
             result = world.settle(max_steps=tol.settle_max_steps,
                                   floor_z=TABLE_TOP_Z - _BELOW_TABLE - 0.1)
@@ -405,5 +439,6 @@ def realise(
         visible_fraction=fraction,
         depth_centre=centre,
     )
-    return Rendering(camera=cam, observations=observations, targets=targets,
-                     executor=EXECUTOR, trajectory=None, physics=physics)
+    return placer.finish(world, Rendering(camera=cam, observations=observations,
+                                          targets=targets, executor=placer.executor,
+                                          trajectory=None, physics=physics))

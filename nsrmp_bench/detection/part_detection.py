@@ -25,17 +25,14 @@ one's boxes are tighter (AP@[.5:.95] 0.816 against 0.568) and NSRM scores higher
 
 
 def _classical(data: Path) -> Iterator[Detections]:
+    from nsrmp_bench.storage.reader import input_camera
     from nsrmp_bench.storage.reader import open as open_collection
 
     col = open_collection(data)
-    first = col.episode(0, images=False).rendering
-    if first is None:
-        msg = (f"{data} holds symbolic episodes without rendering; a detector reads the "
-               "initial image: generate the split with rendering")
-        raise InvalidArgument(msg)
     for i in range(len(col)):
         inp = col.read_inputs(i)
-        yield classical_detect(str(inp["id"]), inp["rgb"], inp["depth"], first.camera)
+        camera = input_camera(inp, inp["id"])  # refuses an episode without rendering
+        yield classical_detect(str(inp["id"]), inp["rgb"], inp["depth"], camera)
 
 
 LearnedDetector = Callable[[Path, "Path | None"],

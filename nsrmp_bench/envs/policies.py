@@ -92,7 +92,7 @@ class ProgramModelPolicy:
                    "issues programs, so name a program model (nsrm, nmn, nsrm-v1, ...)")
             raise InvalidArgument(msg)
         self.model = model
-        self.camera = env.unwrapped.camera
+        self.env = env.unwrapped
         self._steps: list[tuple[int, int, int]] = []
         self._k = 0
 
@@ -102,8 +102,9 @@ class ProgramModelPolicy:
         item = {"id": str(info["instance"]), "inputs": {
             "instruction": observation["instruction"], "rgb": observation["rgb"],
             "depth": observation["depth"],
-            "boxes": np.asarray(observation["boxes"][:n], dtype=np.float32)}}
-        program = self.model.programs([item], self.camera)[0]
+            "boxes": np.asarray(observation["boxes"][:n], dtype=np.float32),
+            "camera": self.env.camera}}  # this episode's camera (reset sets it)
+        program = self.model.programs([item])[0]
         self._steps = [(int(a), int(s), int(r)) for a, s, r in program]
         self._k = 0
 

@@ -12,6 +12,7 @@ from nsrmp_bench.storage.hashing import episode_hash, root_hash
 from nsrmp_bench.storage.manifest import Manifest, build_manifest, read_manifest
 from nsrmp_bench.storage.reader import (
     EpisodeCollection,
+    input_camera,
     open,
     read_episode,
     read_inputs,
@@ -37,6 +38,7 @@ __all__ = [
     "ShardWriter",
     "build_manifest",
     "episode_hash",
+    "input_camera",
     "open",
     "read_episode",
     "read_inputs",

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -37,7 +37,8 @@ from nsrmp_bench.storage.manifest import MANIFEST_NAME, Manifest, read_manifest
 from nsrmp_bench.storage.records import CATEGORY_KEYS
 from nsrmp_bench.storage.split_root import resolve_part
 
-__all__ = ["EpisodeCollection", "open", "read_episode", "read_inputs", "read_targets"]
+__all__ = ["EpisodeCollection", "input_camera", "open", "read_episode", "read_inputs",
+           "read_targets"]
 
 INDEX_COLUMNS = ("id", "split", "index", *CATEGORY_KEYS, "shard")
 _MAX_OPEN = 16
@@ -111,11 +112,12 @@ def read_episode(g: h5py.Group, *, images: bool = True) -> Episode:
 
 def read_inputs(g: h5py.Group, *, images: bool = True, visible: bool = True
                 ) -> dict[str, Any]:
-    """What a model may read: instruction, initial RGB/depth and initial boxes.
+    """What a model may read: instruction, initial RGB/depth, initial boxes and the camera.
 
     Keys: ``id``, ``instruction``, ``rgb`` (H, W, 3) uint8, ``depth`` (H, W) float32 metres,
-    ``boxes`` (N, 4) amodal pixel xyxy, ``boxes_visible`` (N, 4) (left out unless
-    ``visible``); image and box entries are None when the episode has none.
+    ``boxes`` (N, 4) amodal pixel xyxy, ``camera`` (a :class:`Camera`), ``boxes_visible``
+    (N, 4) (left out unless ``visible``); image, box and camera entries are None when the
+    episode has none (:func:`input_camera` reads the camera or says why there is none).
     """
     inp = g["inputs"]
     has_obs = images and "obs" in inp
@@ -126,26 +128,42 @@ def read_inputs(g: h5py.Group, *, images: bool = True, visible: bool = True
         "rgb": inp["obs/rgb"][()] if has_obs else None,
         "depth": inp["obs/depth"][()] if has_obs else None,
         "boxes": inp["boxes_amodal"][()] if has_boxes else None,
+        "camera": _camera(str(g.attrs["camera"])) if "camera" in g.attrs else None,
     }
     if visible:
         out["boxes_visible"] = inp["boxes_visible"][()] if has_boxes else None
     return out
 
 
+def input_camera(inputs: Mapping[str, Any], episode_id: object) -> Camera:
+    """The camera of one episode's inputs (:func:`read_inputs`, or the ``inputs`` of an
+    ``EpisodeDataset`` item); an episode stored without rendering has none, which is an
+    error naming ``episode_id``."""
+    camera = inputs.get("camera")
+    if isinstance(camera, Camera):
+        return camera
+    msg = (f"episode {episode_id!r} has no camera (got {camera!r}): it was stored without "
+           "rendering, and a learned model reads the initial image, boxes and camera; "
+           "generate the split with rendering")
+    raise InvalidArgument(msg)
+
+
 TARGET_ARRAYS = ("poses", "boxes", "boxes_visible", "visible_fraction", "depth_centre")
+"""The per-state target arrays :func:`read_targets` reads unless told otherwise."""
 _TARGET_DATASETS = {"poses": "poses", "boxes": "boxes_amodal", "boxes_visible": "boxes_visible",
-                    "visible_fraction": "visible_fraction", "depth_centre": "depth_centre"}
+                    "visible_fraction": "visible_fraction", "depth_centre": "depth_centre",
+                    "rgb": "obs/rgb"}
 
 
 def read_targets(g: h5py.Group, arrays: Sequence[str] = TARGET_ARRAYS) -> dict[str, Any]:
     """The gold of an episode: symbolic episode (dict), program text and per-state arrays.
 
     ``arrays`` picks among ``poses``, ``boxes`` (amodal), ``boxes_visible``,
-    ``visible_fraction`` and ``depth_centre``; each is None for an episode without
-    rendering.
+    ``visible_fraction``, ``depth_centre`` (states 0..S) and ``rgb`` (the render after
+    each step, (S, H, W, 3) uint8; read only when asked for); each is None for an episode
+    without rendering (``rgb`` also for one stored without images).
     """
     tg = g["targets"]
-    has = "poses" in tg
     out: dict[str, Any] = {
         "id": str(g.attrs["id"]),
         "symbolic": json.loads(_str(tg["symbolic"])),
@@ -153,9 +171,10 @@ def read_targets(g: h5py.Group, arrays: Sequence[str] = TARGET_ARRAYS) -> dict[s
     }
     for key in arrays:
         if key not in _TARGET_DATASETS:
-            msg = f"unknown target array {key!r}; expected some of {list(TARGET_ARRAYS)}"
+            msg = f"unknown target array {key!r}; expected some of {list(_TARGET_DATASETS)}"
             raise InvalidArgument(msg)
-        out[key] = tg[_TARGET_DATASETS[key]][()] if has else None
+        name = _TARGET_DATASETS[key]
+        out[key] = tg[name][()] if name in tg else None
     return out
 
 

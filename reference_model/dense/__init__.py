@@ -20,7 +20,6 @@ import torch.nn.functional as F
 from torch import Tensor
 
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.reference_model.base import PredictionModel, TrainingPlan
 from nsrmp_bench.reference_model.contract import Kind, ModelConfig
 from nsrmp_bench.reference_model.dense.config import Dense5xConfig, DenseConfig, DenseV2Config
@@ -165,11 +164,10 @@ class DensePredictor(PredictionModel):
         enc, _ = encode_items(items, self.vocab, self.config.scale, targets=False)
         return enc, infer(self.model, enc)
 
-    def predict(self, items: Sequence[dict[str, Any]], camera: Camera) -> Iterator[Prediction]:
+    def predict(self, items: Sequence[dict[str, Any]]) -> Iterator[Prediction]:
         """Predictions (boxes, pick, place) for dataset items (``{"id", "inputs"}``).
 
-        ``camera`` is not used: pick and place are pixels, as the boxes are."""
-        del camera
+        The camera is not read: pick and place are pixels, as the boxes are."""
         enc, res = self.infer(items)
         for i, eid in enumerate(enc.ids):
             yield Prediction(id=eid, boxes=res.boxes[i],

@@ -9,13 +9,14 @@ writes its detections. See ``MODEL_CARD.md`` beside this file.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import torch
 from torch import Tensor
 
+from nsrmp_bench.dataset import EpisodeDataset
 from nsrmp_bench.detection.detections import Detections
 from nsrmp_bench.detection.matching import MATCH_IOU, hungarian_match
 from nsrmp_bench.errors import InvalidArgument
@@ -32,6 +33,7 @@ __all__ = ["MODEL_ID", "DetectorConfig", "DetectorPredictor", "detect_scenes",
            "detect_with"]
 
 MODEL_ID = "detector-v1"
+_CHUNK = 200  # episodes read into memory at a time when detecting a part
 
 
 def _crop_batch(scenes: Scenes, rows: Tensor, cfg: DetectorConfig
@@ -113,8 +115,9 @@ class DetectorPredictor(LearnedModel):
     def plan_training(cls, data: Path, config: DetectorConfig, seed: int) -> TrainingPlan:
         cfg = config
         t0 = time.perf_counter()
-        train = read_scenes(data / "train", targets=True, limit=cfg.train_limit)
-        val = read_scenes(data / "val", targets=True, limit=cfg.val_limit)
+        train = read_scenes(EpisodeDataset(data / "train").iter_items(cfg.train_limit),
+                            targets=True)
+        val = read_scenes(EpisodeDataset(data / "val").iter_items(cfg.val_limit), targets=True)
         read_seconds = time.perf_counter() - t0
         model = CenterNet(cfg.width)
 
@@ -131,18 +134,16 @@ class DetectorPredictor(LearnedModel):
                            f"the first {len(val)} of val (F1 at IoU 0.5)"),
             score_name="val F1", read_seconds=read_seconds)
 
-    def detect(self, scenes: Scenes) -> list[Detections]:
-        """Detections of every scene."""
+    def detect(self, items: Iterable[Mapping[str, Any]]) -> list[Detections]:
+        """Detections of the initial scene of every dataset item (reads ``inputs`` only)."""
         self.set_threads()
-        return detect_scenes(self.model, scenes, self.config)
+        return detect_scenes(self.model, read_scenes(items, targets=False), self.config)
 
     def detect_part(self, data: str | Path) -> Iterator[Detections]:
-        """Detections of every episode of a part, read in chunks."""
-        from nsrmp_bench.storage.reader import open as open_collection
-
-        col = open_collection(data)
-        for s in range(0, len(col), 200):
-            yield from self.detect(read_scenes(col, targets=False, start=s, stop=s + 200))
+        """Detections of every episode of a part, read through ``EpisodeDataset`` in chunks."""
+        ds = EpisodeDataset(data)
+        for start in range(0, len(ds), _CHUNK):
+            yield from self.detect(ds.iter_items(_CHUNK, start=start))
 
 
 def detect_with(part: Path, checkpoint: Path | None

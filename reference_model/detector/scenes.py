@@ -1,24 +1,23 @@
-"""A split part's initial scenes as tensors the detector trains on and reads.
+"""Initial scenes as tensors the detector trains on and reads, from ``EpisodeDataset`` items.
 
-Per episode: the initial RGB, the height above the table (from depth and the camera,
-:func:`nsrmp_bench.detection.height.height_map`), and for training the gold initial
-amodal boxes with each object's shape and colour index (the scene's objects).
+Per episode: the initial RGB, the height above the table (from depth and the episode's
+camera, :func:`nsrmp_bench.detection.height.height_map`), and for training the gold
+initial amodal boxes with each object's shape and colour index (the item's ``targets``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
 from torch import Tensor
 
+from nsrmp_bench.dataset import item_camera
 from nsrmp_bench.detection.height import height_map
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.storage.reader import EpisodeCollection
-from nsrmp_bench.storage.reader import open as open_collection
-from nsrmp_bench.vocabulary import COLOURS, SHAPES
 
 __all__ = ["Scenes", "read_scenes"]
 
@@ -38,48 +37,39 @@ class Scenes:
         return len(self.ids)
 
 
-def read_scenes(source: str | Path | EpisodeCollection, *, targets: bool,
-                limit: int = 0, start: int = 0, stop: int | None = None) -> Scenes:
-    """The initial scenes of a part: positions ``start`` to ``stop`` (exclusive; default
-    the end), or the first ``limit`` episodes if ``limit`` > 0.
+def read_scenes(items: Iterable[Mapping[str, Any]], *, targets: bool) -> Scenes:
+    """The initial scenes of ``items`` (dataset items, read one at a time).
 
-    Without ``targets`` only inputs are read (``boxes``, ``shapes``, ``colours`` empty).
+    Reads ``inputs`` only unless ``targets`` (training): then also the gold initial boxes
+    (the inputs' boxes) and each object's shape and colour (``targets``); without it
+    ``boxes``, ``shapes`` and ``colours`` stay empty.
     """
-    col = source if isinstance(source, EpisodeCollection) else open_collection(source)
-    end = len(col) if limit <= 0 else min(limit, len(col))
-    end = end if stop is None else min(stop, end)
-    positions = range(start, end)
-    n = len(positions)
-    if n == 0:
-        msg = f"{source} holds no episodes; pass a split part with rendered episodes"
-        raise InvalidArgument(msg)
-    first = col.episode(0, images=False).rendering
-    if first is None:
-        msg = (f"{source} holds symbolic episodes without rendering; a detector reads the "
-               "initial image: generate the split with rendering")
-        raise InvalidArgument(msg)
-    camera = first.camera
     ids: list[str] = []
-    rgb = torch.zeros((n, camera.height, camera.width, 3), dtype=torch.uint8)
-    height = torch.zeros((n, camera.height, camera.width), dtype=torch.float16)
+    rgb: list[Tensor] = []
+    height: list[Tensor] = []
     boxes, shapes, colours = [], [], []
-    shape_ix = {s: i for i, s in enumerate(SHAPES)}
-    colour_ix = {c: i for i, c in enumerate(COLOURS)}
-    for i, pos in enumerate(positions):
-        if targets:
-            inp, tg = col.read_item(pos, arrays=())
-        else:
-            inp = col.read_inputs(pos)
-        if inp["rgb"] is None:
-            msg = f"episode {inp['id']!r} of {source} has no rendering; a detector reads it"
+    for item in items:
+        inp = item["inputs"]
+        eid = str(item["id"])
+        if inp["rgb"] is None or inp["depth"] is None:
+            msg = (f"episode {eid!r} has no initial image: a detector reads it; generate the "
+                   "split with rendering (and images)")
             raise InvalidArgument(msg)
-        ids.append(str(inp["id"]))
-        rgb[i] = torch.from_numpy(np.ascontiguousarray(inp["rgb"]))
-        height[i] = torch.from_numpy(height_map(inp["depth"], camera).astype(np.float16))
+        if rgb and tuple(inp["rgb"].shape) != tuple(rgb[0].shape):
+            msg = (f"episode {eid!r} has a {tuple(inp['rgb'].shape)} image, episode "
+                   f"{ids[0]!r} a {tuple(rgb[0].shape)} one; a detector reads one image size "
+                   "at a time: detect each split part on its own")
+            raise InvalidArgument(msg)
+        ids.append(eid)
+        rgb.append(inp["rgb"])
+        depth = np.asarray(inp["depth"].numpy())
+        height.append(torch.from_numpy(height_map(depth, item_camera(item)).astype(np.float16)))
         if targets:
-            objs = tg["symbolic"]["scene"]["objects"]
-            boxes.append(torch.from_numpy(np.asarray(inp["boxes"], dtype=np.float32)))
-            shapes.append(torch.tensor([shape_ix[o["shape"]] for o in objs]))
-            colours.append(torch.tensor([colour_ix[o["colour"]] for o in objs]))
-    col.close()
-    return Scenes(ids, rgb, height, boxes, shapes, colours)
+            tg = item["targets"]
+            boxes.append(inp["boxes"].to(torch.float32))
+            shapes.append(tg["shapes"])
+            colours.append(tg["colours"])
+    if not ids:
+        msg = "no episodes to read: pass a split part with rendered episodes"
+        raise InvalidArgument(msg)
+    return Scenes(ids, torch.stack(rgb), torch.stack(height), boxes, shapes, colours)

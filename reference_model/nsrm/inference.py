@@ -14,6 +14,7 @@ from typing import Any, Protocol
 import torch
 from torch import Tensor
 
+from nsrmp_bench.dataset import shared_camera
 from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.reference_model.base import ProgramPredictionModel
 from nsrmp_bench.reference_model.encoded import Encoded, encode_inputs
@@ -142,13 +143,12 @@ class ProgramPredictor(ProgramPredictionModel):
         enc = encode_inputs(items, self.vocab)
         return enc, self.run(enc)
 
-    def predict(self, items: Sequence[dict[str, Any]], camera: Camera) -> Iterator[Prediction]:
-        """Predictions for dataset items (``{"id", "inputs"}``), positions via ``camera``."""
+    def predict(self, items: Sequence[dict[str, Any]]) -> Iterator[Prediction]:
+        """Predictions for dataset items (``{"id", "inputs"}``), positions via their camera."""
+        camera = shared_camera(items)
         enc, res = self.infer(items)
         return inferred_predictions(enc, res, camera)
 
-    def programs(self, items: Sequence[dict[str, Any]],
-                 camera: Camera) -> list[list[tuple[int, int, int]]]:
-        """Per item, its predicted steps (``camera`` unused: v1 reads 2D boxes only)."""
-        del camera
+    def programs(self, items: Sequence[dict[str, Any]]) -> list[list[tuple[int, int, int]]]:
+        """Per item, its predicted steps (v1 reads 2D boxes only, not the camera)."""
         return self.infer(items)[1].steps

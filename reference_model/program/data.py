@@ -9,8 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.geometry.camera import Camera
+from nsrmp_bench.dataset import EpisodeDataset, item_camera
 from nsrmp_bench.reference_model.encoded import Encoded, encode_inputs, encode_targets
 from nsrmp_bench.reference_model.program.consistent import (
     Consistent,
@@ -21,7 +20,7 @@ from nsrmp_bench.reference_model.program.consistent import (
 from nsrmp_bench.reference_model.program.scene3d import ActionRule, SceneState, scene_state
 from nsrmp_bench.reference_model.tokens import PAD, Vocabulary
 
-__all__ = ["ProgramData", "fit_part_rule", "part_camera", "program_data", "read_items"]
+__all__ = ["ProgramData", "fit_part_rule", "program_data", "read_items"]
 
 
 @dataclass
@@ -38,37 +37,20 @@ class ProgramData:
         return len(self.enc)
 
 
-def part_camera(path: Path) -> Camera:
-    """The camera of a split part (every episode of a part shares it)."""
-    from nsrmp_bench.storage.reader import open as open_collection
-
-    col = open_collection(path)
-    try:
-        first = col.episode(0, images=False).rendering
-    finally:
-        col.close()
-    if first is None:
-        msg = (f"{path} holds symbolic episodes without rendering; the program models read "
-               "the initial image, depth and boxes: generate the split with rendering")
-        raise InvalidArgument(msg)
-    return first.camera
-
-
 def read_items(path: Path) -> tuple[list[dict[str, Any]], Any]:
     """Every item of the part at ``path`` through ``EpisodeDataset``, and the dataset."""
-    from nsrmp_bench.dataset import EpisodeDataset
-
     ds = EpisodeDataset(path)
-    return [ds[i] for i in range(len(ds))], ds
+    return list(ds.iter_items()), ds
 
 
-def program_data(items: list[dict[str, Any]], vocab: Vocabulary, camera: Camera,
+def program_data(items: list[dict[str, Any]], vocab: Vocabulary,
                  rule: ActionRule) -> ProgramData:
-    """Inputs only: what prediction reads."""
+    """Inputs only: what prediction reads (each episode's 3D state through its own camera)."""
     enc = encode_inputs(items, vocab)
     tokens = [[int(t) for t in row if t != PAD] or [PAD] for row in enc.tokens.tolist()]
     states = [
-        scene_state(enc.boxes[i, m].numpy(), enc.geometry[i, m, 4].numpy(), camera, rule)
+        scene_state(enc.boxes[i, m].numpy(), enc.geometry[i, m, 4].numpy(),
+                    item_camera(items[i]), rule)
         for i, m in enumerate(enc.object_mask)
     ]
     return ProgramData(enc, tokens, states)

@@ -20,13 +20,12 @@ from typing import Any, ClassVar
 
 import torch
 
-from nsrmp_bench.geometry.camera import Camera
+from nsrmp_bench.dataset import shared_camera
 from nsrmp_bench.reference_model.base import ProgramPredictionModel, TrainingPlan
 from nsrmp_bench.reference_model.encoded import encode_targets
 from nsrmp_bench.reference_model.program.data import (
     ProgramData,
     fit_part_rule,
-    part_camera,
     program_data,
     read_items,
     with_training_signal,
@@ -86,7 +85,6 @@ class ProgramModelBase(ProgramPredictionModel):
         train_dir, val_dir = data / "train", data / "val"
         items, ds = read_items(train_dir)
         vocab = Vocabulary.build(str(it["inputs"]["instruction"]) for it in items)
-        camera = part_camera(train_dir)
         cats = ds.collection.index.set_index("id").to_dict("index")
         if not (val_dir / "manifest.json").exists():
             cut = len(items) - max(1, len(items) // 10)
@@ -97,11 +95,11 @@ class ProgramModelBase(ProgramPredictionModel):
             val_cats = vds.collection.index.set_index("id").to_dict("index")
             selected_on = "val"
         # the states depend on the rule's fixed centre only, so one encoding serves the fit
-        train = program_data(items, vocab, camera, ActionRule())
+        train = program_data(items, vocab, ActionRule())
         encode_targets(train.enc, items, cats)
         rule = fit_part_rule(train)
         train = with_training_signal(train, items, cats, rule)
-        val = with_training_signal(program_data(val_items, vocab, camera, rule), val_items,
+        val = with_training_signal(program_data(val_items, vocab, rule), val_items,
                                    val_cats, rule)
         read = time.perf_counter() - t0
         torch.manual_seed(seed)
@@ -154,22 +152,22 @@ class ProgramModelBase(ProgramPredictionModel):
         """The action rule this checkpoint was trained with."""
         return self.model.rule
 
-    def predict(self, items: Sequence[dict[str, Any]], camera: Camera,
+    def predict(self, items: Sequence[dict[str, Any]],
                 oracle: Oracle | None = None) -> Iterator[Prediction]:
         """Predictions for ``items`` (``oracle``: the diagnosis's gold substitutions)."""
-        data, decoded = self._decode(items, camera, oracle)
+        camera = shared_camera(items)
+        data, decoded = self._decode(items, oracle)
         ids = [str(it["id"]) for it in items]
         return decoded_predictions(ids, data, decoded, camera)
 
-    def programs(self, items: Sequence[dict[str, Any]],
-                 camera: Camera) -> list[list[tuple[int, int, int]]]:
+    def programs(self, items: Sequence[dict[str, Any]]) -> list[list[tuple[int, int, int]]]:
         """Per item, its decoded steps."""
-        return self._decode(items, camera)[1].steps
+        return self._decode(items)[1].steps
 
-    def _decode(self, items: Sequence[dict[str, Any]], camera: Camera,
+    def _decode(self, items: Sequence[dict[str, Any]],
                 oracle: Oracle | None = None) -> tuple[ProgramData, Decoded]:
         self.set_threads()
-        data = program_data(list(items), self.vocab, camera, self.model.rule)
+        data = program_data(list(items), self.vocab, self.model.rule)
         return data, decode(self.model.step, self.model.splitter, data, self.model.rule,
                             oracle)
 

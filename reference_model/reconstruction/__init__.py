@@ -77,7 +77,8 @@ class ReconstructionPredictor(LearnedModel):
     """``reconstruction-v1``: trains on the renders of ``data/train``, selects on
     ``data/val`` (a split without a val part selects on the last tenth of the train
     episodes read); makes the image after a step from the image before it (:meth:`step`,
-    :meth:`chain`; ``nsrmp-bench reconstruct`` runs it over a predictions file)."""
+    :meth:`chain`; :meth:`reconstruct` from a dataset item; ``nsrmp-bench reconstruct`` runs
+    it over a predictions file)."""
 
     model_id = MODEL_ID
     kind = Kind.RECONSTRUCTION
@@ -154,6 +155,17 @@ class ReconstructionPredictor(LearnedModel):
             y = self.model(t)[0, :, :h, :w]
         out: NDArray[np.uint8] = (y * 255.0).round().to(torch.uint8).permute(1, 2, 0).numpy()
         return np.ascontiguousarray(out)
+
+    def reconstruct(self, item: Mapping[str, Any], step_boxes: NDArray[Any]
+                    ) -> list[NDArray[np.uint8]]:
+        """The images after each of the steps ``step_boxes`` ``(S, N, 4)`` of a dataset item,
+        from its initial image and boxes (reads ``inputs`` only; see :meth:`chain`)."""
+        inp = item["inputs"]
+        if inp["rgb"] is None or inp["boxes"] is None:
+            msg = (f"episode {item['id']!r} has no initial image or boxes; the reconstruction "
+                   "network starts from them: generate the split with rendering")
+            raise InvalidArgument(msg)
+        return self.chain(inp["rgb"].numpy(), inp["boxes"].numpy(), step_boxes)
 
     def chain(self, initial: NDArray[np.uint8], initial_boxes: NDArray[Any],
               step_boxes: NDArray[Any]) -> list[NDArray[np.uint8]]:

@@ -1,6 +1,7 @@
 """Training pairs from a split part's renders: one sample per step and moved box.
 
-Every stored episode holds the render of each state (:mod:`nsrmp_bench.storage`). For step
+Every stored episode holds the render of each state; ``EpisodeDataset`` (with
+``step_images``) gives the initial one as an input and the later ones as targets. For step
 ``k`` the input is built from the render before it and the gold boxes before and after it
 (:func:`~.inputs.step_inputs`), the target is the render after it. The network is fully
 convolutional, so it trains on ``patch``-sized windows: one centred on each moved
@@ -18,6 +19,7 @@ import torch
 from numpy.typing import NDArray
 from torch import Tensor
 
+from nsrmp_bench.dataset import EpisodeDataset
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.reference_model.reconstruction.inputs import moved_objects, step_inputs
 
@@ -37,43 +39,29 @@ class StepSample:
 
 
 def part_steps(path: str | Path, limit: int = 0) -> Iterator[StepSample]:
-    """The steps of the first ``limit`` episodes (0: all) of the data directory ``path``."""
-    from nsrmp_bench.storage import open as open_storage
-
-    collection = open_storage(path)
-    try:
-        n = len(collection) if limit <= 0 else min(limit, len(collection))
-        for i in range(n):
-            ep = collection.episode(i, images=True)
-            r = ep.rendering
-            if r is None or r.observations is None:
-                msg = (f"episode {ep.id} in {path} has no images; the reconstruction model "
-                       "trains on renders: generate the split with rendering")
-                raise InvalidArgument(msg)
-            rgb, boxes = r.observations.rgb, r.targets.boxes_amodal.astype(np.float64)
-            for k in range(1, rgb.shape[0]):
-                yield StepSample(ep.id, k, rgb[k - 1], rgb[k], boxes[k - 1], boxes[k])
-    finally:
-        collection.close()
+    """The steps of the first ``limit`` episodes (0: all) of the data directory ``path``,
+    read through ``EpisodeDataset`` (its targets: the renders after each step and the boxes)."""
+    for item in EpisodeDataset(path, step_images=True).iter_items(limit):
+        initial, after = item["inputs"]["rgb"], item["targets"]["rgb"]
+        if initial is None or after is None:
+            msg = (f"episode {item['id']} in {path} has no images; the reconstruction model "
+                   "trains on renders: generate the split with rendering")
+            raise InvalidArgument(msg)
+        rgb = [initial.numpy(), *after.numpy()]
+        boxes = item["targets"]["boxes"].numpy().astype(np.float64)
+        for k in range(1, len(rgb)):
+            yield StepSample(str(item["id"]), k, rgb[k - 1], rgb[k], boxes[k - 1], boxes[k])
 
 
 def background_plate(path: str | Path, limit: int) -> NDArray[np.uint8]:
     """The empty scene ``(H, W, 3)``: the per-pixel median of the initial images of the
     first ``limit`` episodes of ``path`` (each pixel shows the table in most of them)."""
-    from nsrmp_bench.storage import open as open_storage
-
-    collection = open_storage(path)
-    try:
-        n = min(max(1, limit), len(collection))
-        images = []
-        for i in range(n):
-            inp = collection.read_inputs(i, images=True)
-            if inp["rgb"] is None:
-                msg = f"episode {inp['id']} in {path} has no images to make the plate from"
-                raise InvalidArgument(msg)
-            images.append(inp["rgb"])
-    finally:
-        collection.close()
+    images = []
+    for item in EpisodeDataset(path).iter_items(max(1, limit)):
+        if item["inputs"]["rgb"] is None:
+            msg = f"episode {item['id']} in {path} has no images to make the plate from"
+            raise InvalidArgument(msg)
+        images.append(item["inputs"]["rgb"].numpy())
     if len({im.shape for im in images}) != 1:
         msg = f"{path} holds images of several sizes; the plate needs one camera"
         raise InvalidArgument(msg)

@@ -185,6 +185,7 @@ def reconstruct_file(predictions: str | Path, data: str | Path, out: str | Path,
         sim = sim_renderer()
         render = sim.chain
     else:
+        from nsrmp_bench.dataset import EpisodeDataset
         from nsrmp_bench.reference_model.checkpoints import shipped_checkpoint
         from nsrmp_bench.reference_model.reconstruction import (
             MODEL_ID,
@@ -193,10 +194,10 @@ def reconstruct_file(predictions: str | Path, data: str | Path, out: str | Path,
 
         net = ReconstructionPredictor.from_checkpoint(
             checkpoint if checkpoint is not None else shipped_checkpoint(MODEL_ID))
+        items = EpisodeDataset(collection)  # the network reads each episode's inputs
 
         def render(ep: Any, steps: NDArray[Any], _pos: Any) -> list[U8]:
-            r = ep.rendering
-            return list(net.chain(r.observations.rgb[0], r.targets.boxes_amodal[0], steps))
+            return net.reconstruct(items[collection.position(ep.id)], steps)
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -1,7 +1,7 @@
 """The learned-model contract, once for every registered model (and a toy defined here):
 a tiny run learns and writes the run's files, the same seed gives the same bytes, a resume
 with another config is refused before anything is written, the shipped checkpoint loads
-and runs, and a model that writes predictions never reads ``targets``.
+and runs, and no model (predictions, detector, reconstruction) reads ``targets``.
 
 Every run is a few seconds: smoke-v2/test (16 episodes) serves as train and val, and each
 model's ``tiny_overrides`` shrink it. The toy model (``toy_model/``) is registered below
@@ -15,12 +15,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 torch = pytest.importorskip("torch")
 
 from nsrmp_bench.cli.main import main  # noqa: E402
 from nsrmp_bench.errors import InvalidArgument  # noqa: E402
+from nsrmp_bench.reference_model.base import PredictionModel  # noqa: E402
 from nsrmp_bench.reference_model.contract import Kind  # noqa: E402
 from nsrmp_bench.reference_model.registry import (  # noqa: E402
     MODELS,
@@ -155,19 +157,59 @@ def test_shipped_checkpoint_loads_and_runs(model_id: str, smoke_test: Path,
         assert images[0].shape == r.observations.rgb[0].shape
 
 
-@pytest.mark.parametrize("model_id", [i for i in IDS if get_model(i).kind.writes_predictions])
+@pytest.mark.parametrize("model_id", IDS)
 def test_targets_cannot_be_read(model_id: str, root: Path, runs: dict[str, Path],
                                 tmp_path_factory: pytest.TempPathFactory, smoke_test: Path,
                                 hide_targets: Callable[[dict[str, Any]], dict[str, Any]]) -> None:
+    """Every kind runs on ``EpisodeDataset`` items whose ``targets`` fail the test when read:
+    predictions, detections and reconstructions come from ``inputs`` alone."""
     from nsrmp_bench.dataset import EpisodeDataset
-    from nsrmp_bench.reference_model.registry import load_predictor
 
     ds = EpisodeDataset(smoke_test, transform=hide_targets)
     items = [ds[i] for i in range(len(ds))]
-    camera = ds.collection.episode(0, images=False).rendering.camera  # type: ignore[union-attr]
-    checkpoint = _run(runs, model_id, root, tmp_path_factory) / "best.pt"
-    preds = list(load_predictor(model_id, checkpoint).predict(items, camera))
-    assert [p.id for p in preds] == [it["id"] for it in items]
+    cls = get_model(model_id).model_cls()
+    model = cls.from_checkpoint(_run(runs, model_id, root, tmp_path_factory) / "best.pt")
+    ids = [it["id"] for it in items]
+    if isinstance(model, PredictionModel):
+        assert [p.id for p in model.predict(items)] == ids
+    elif model.kind is Kind.DETECTOR:
+        assert [d.id for d in model.detect(items)] == ids  # type: ignore[attr-defined]
+    else:
+        assert model.kind is Kind.RECONSTRUCTION
+        boxes = items[0]["inputs"]["boxes"].numpy()
+        steps = np.stack([boxes, boxes + np.array([8.0, 0.0, 8.0, 0.0], np.float32)])
+        images = model.reconstruct(items[0], steps)  # type: ignore[attr-defined]
+        assert len(images) == 2 and images[0].shape == items[0]["inputs"]["rgb"].shape
+
+
+def test_the_item_carries_the_camera(smoke_test: Path) -> None:
+    """The camera is an input of every item, typed, and the one stored with the episode."""
+    from nsrmp_bench.dataset import EpisodeDataset, collate_episodes, item_camera, shared_camera
+    from nsrmp_bench.geometry.camera import Camera
+
+    ds = EpisodeDataset(smoke_test, images=False)
+    items = [ds[i] for i in range(len(ds))]
+    stored = ds.collection.episode(3, images=False).rendering
+    assert stored is not None
+    assert isinstance(items[3]["inputs"]["camera"], Camera)
+    assert item_camera(items[3]) == stored.camera == shared_camera(items)
+    assert collate_episodes(items[:2])["inputs"]["camera"] == [stored.camera] * 2
+
+
+def test_an_item_without_a_camera_is_refused_by_name(smoke_test: Path) -> None:
+    from nsrmp_bench.dataset import EpisodeDataset, item_camera, shared_camera
+    from nsrmp_bench.geometry.camera import Camera
+
+    item = EpisodeDataset(smoke_test, images=False)[0]
+    bare = {**item, "inputs": {**item["inputs"], "camera": None}}
+    with pytest.raises(InvalidArgument, match=f"{item['id']}.*no camera.*with rendering"):
+        item_camera(bare)
+    other = {**item, "id": "other", "inputs": {**item["inputs"], "camera": Camera(
+        32, 24, 40.0, (0.0, -1.0, 1.0), (0.0, 0.0, 0.0))}}
+    with pytest.raises(InvalidArgument, match="'other' has another camera"):
+        shared_camera([item, other])
+    with pytest.raises(InvalidArgument, match="no items"):
+        shared_camera([])
 
 
 def test_a_kind_without_predictions_is_refused_by_predict(smoke_test: Path, tmp_path: Path,

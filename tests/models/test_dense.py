@@ -91,8 +91,7 @@ def test_model_never_reads_targets(smoke_test: Path) -> None:
 
     ds = EpisodeDataset(smoke_test, transform=hide)
     items = [ds[i] for i in range(len(ds))]
-    camera = ds.collection.episode(0, images=False).rendering.camera
-    preds = list(load_model("dense-v1").predict(items, camera))
+    preds = list(load_model("dense-v1").predict(items))
     assert [p.id for p in preds] == ds.collection.ids
     assert all(p.pick is not None and p.place is not None for p in preds)
 

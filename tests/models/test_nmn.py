@@ -68,8 +68,7 @@ def test_model_never_reads_targets(tiny_nmn: Path, smoke_test: Path,
 
     ds = EpisodeDataset(smoke_test, transform=hide_targets)
     items = [ds[i] for i in range(len(ds))]
-    camera = ds.collection.episode(0, images=False).rendering.camera
-    preds = list(load_model("nmn-v1", tiny_nmn / "best.pt").predict(items, camera))
+    preds = list(load_model("nmn-v1", tiny_nmn / "best.pt").predict(items))
     assert [p.id for p in preds] == ds.collection.ids
 
 

@@ -17,7 +17,7 @@ from nsrmp_bench.cli.main import main
 from nsrmp_bench.dataset import EpisodeDataset
 from nsrmp_bench.reference_model.nsrm2.config import NSRM2Config
 from nsrmp_bench.reference_model.nsrm2.model import ROLES, ConceptStepModel
-from nsrmp_bench.reference_model.program.data import part_camera, program_data, read_items
+from nsrmp_bench.reference_model.program.data import program_data, read_items
 from nsrmp_bench.reference_model.program.inference import Oracle, decode
 from nsrmp_bench.reference_model.program.modules import Splitter
 from nsrmp_bench.reference_model.program.scene3d import ActionRule
@@ -60,7 +60,7 @@ def test_shipped_checkpoint_predicts_without_targets(
         tmp_path: Path) -> None:
     ds = EpisodeDataset(smoke_test, transform=hide_targets)
     items = [ds[i] for i in range(len(ds))]
-    preds = list(load_model(model).predict(items, part_camera(smoke_test)))
+    preds = list(load_model(model).predict(items))
     assert len(preds) == len(items) and all(p.program for p in preds)
     pred = tmp_path / "p.jsonl"
     assert main(["predict", model, "--data", str(smoke_test), "--out", str(pred)]) == 0
@@ -75,7 +75,7 @@ def test_d1_one_action_encoding(smoke_test: Path) -> None:
     argmax of: the action rule only ever sees one of the three actions."""
     model = load_model("nsrm-v2")
     items, _ = read_items(smoke_test)
-    data = program_data(items, model.vocab, part_camera(smoke_test), model.rule)
+    data = program_data(items, model.vocab, model.rule)
     step = model.model.step
     from nsrmp_bench.reference_model.program.consistent import Consistent
     from nsrmp_bench.reference_model.program.training import EpisodeBatch, pad_tokens
@@ -152,7 +152,7 @@ def test_d5_relations_read_on_the_current_state(smoke_test: Path) -> None:
     model = _hand_model(vocab)
     items, _ = read_items(smoke_test)
     rule = ActionRule()
-    data = program_data(items[:1], vocab, part_camera(smoke_test), rule)
+    data = program_data(items[:1], vocab, rule)
     state = data.states[0]
     assert len(state) == 3
     state.centres[:, 0] = [-0.2, 0.2, 0.0]
@@ -213,7 +213,7 @@ def test_d8_positions_of_a_correct_program_pass_success_3d(
 
     pred = tmp_path / "gold.jsonl"
     write_model_predictions(pred, ds.collection.split, "nsrm-v2",
-                            model.predict(items, part_camera(smoke_test), oracle))
+                            model.predict(items, oracle))
     out = tmp_path / "s.json"
     assert main(["score", str(pred), "--data", str(smoke_test), "--json", str(out),
                  "--quiet", "--n-boot", "0"]) == 0
@@ -233,7 +233,7 @@ def test_action_rule_fit_recovers_the_rule_that_moved_the_boxes(smoke_test: Path
     items, _ = read_items(smoke_test)
     vocab = Vocabulary(("<pad>", "<unk>"))
     true = ActionRule(0.3, (0.2, 0.3, 0.1, 0.2, 0.004), (0.5, 0.4, 0.3, 0.2, 0.01))
-    data = program_data(items, vocab, part_camera(smoke_test), true)
+    data = program_data(items, vocab, true)
     rng = np.random.default_rng(0)
     states, finals, programs = [], [], []
     for _ in range(8):

@@ -14,7 +14,7 @@ pytest.importorskip("cv2")
 from robot_cases import generated
 
 from nsrmp_bench.episode import Episode, SeedInfo, SymbolicEpisode
-from nsrmp_bench.generators.robot.realise import realise_with_robot
+from nsrmp_bench.generators.robot.realise import RobotPlacer
 from nsrmp_bench.generators.world.realise import realise
 
 pytestmark = pytest.mark.sim
@@ -30,7 +30,7 @@ def _indexed(ep: SymbolicEpisode, index: int) -> SymbolicEpisode:
 
 def test_a_robot_realisation_matches_the_teleported_one(world: Any) -> None:
     ep = generated(8, 3, 300, "any")
-    robot = realise_with_robot(ep.scene, ep.states, ep.grounded, world)
+    robot = realise(ep.scene, ep.states, ep.grounded, world, placer=RobotPlacer())
     teleport = realise(ep.scene, ep.states, ep.grounded, world)
     assert robot.executor == "robot" and teleport.executor == "teleport"
     assert robot.physics["robot"]["success"]
@@ -60,8 +60,8 @@ def test_robot_episodes_store_their_trajectory_and_export_it(world: Any, tmp_pat
     episodes = []
     for k, index in enumerate((301, 302)):
         ep = _indexed(generated(5, 2, index), k)
-        episodes.append(Episode(ep, realise_with_robot(ep.scene, ep.states, ep.grounded,
-                                                       world)))
+        episodes.append(Episode(ep, realise(ep.scene, ep.states, ep.grounded, world,
+                                            placer=RobotPlacer())))
     write_shard(tmp_path, 0, episodes, split="robot-test-v1")
     shard = next(tmp_path.glob("*.h5"))
     coll = open_data(shard)

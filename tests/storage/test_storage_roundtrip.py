@@ -153,8 +153,10 @@ def test_inputs_hold_no_gold(tmp_path: Path) -> None:
         assert "program" in g["targets"] and "symbolic" in g["targets"]
     coll = open(tmp_path / record.file)
     inputs = coll.read_inputs(0)
-    assert set(inputs) == {"id", "instruction", "rgb", "depth", "boxes", "boxes_visible"}
+    assert set(inputs) == {"id", "instruction", "rgb", "depth", "boxes", "boxes_visible",
+                           "camera"}
     assert inputs["instruction"] == ep.symbolic.instruction.text
+    assert ep.rendering is not None and inputs["camera"] == ep.rendering.camera
 
 
 def test_plain_h5py_reads_every_array_with_builtin_filters(tmp_path: Path) -> None:

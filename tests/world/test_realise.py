@@ -154,8 +154,10 @@ def test_inputs_that_do_not_fit_together_are_invalid_arguments(world: Any) -> No
         realise(scene, states, (steps[0].__class__("top", 7, 0),), world)
     with pytest.raises(InvalidArgument, match="min_visible"):
         realise(scene, states, steps, world, min_visible=1.5)
-    with pytest.raises(InvalidArgument, match="executor"):
-        realise(scene, states, steps, world, executor="robot-v9")
+    from nsrmp_bench.generators.generate import placer
+
+    with pytest.raises(InvalidArgument, match=r"'robot-v9'.*'teleport'.*split spec"):
+        placer("robot-v9")
 
 
 def test_physics_only_runs_skip_the_images(world: Any) -> None:

@@ -18,7 +18,6 @@ import torch
 from torch import Tensor, nn
 
 from nsrmp_bench.dataset import EpisodeDataset
-from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.reference_model.base import PredictionModel, TrainingPlan
 from nsrmp_bench.reference_model.contract import Kind, ModelConfig
 from nsrmp_bench.reference_model.training import Stage
@@ -103,8 +102,7 @@ class ToyModel(PredictionModel):
                             training_data=f"{len(items)} episodes of {data / 'train'}",
                             score_name="val accuracy")
 
-    def predict(self, items: Sequence[dict[str, Any]], camera: Camera) -> Iterator[Prediction]:
-        del camera
+    def predict(self, items: Sequence[dict[str, Any]]) -> Iterator[Prediction]:
         self.set_threads()
         boxes, mask = _boxes(items)
         with torch.no_grad():
