@@ -182,7 +182,7 @@ def test_previous_role_points_at_the_object_the_previous_step_moved(
     vocab = Vocabulary(("<pad>", "<unk>", "blue", "go", "it", "left", "red"))
     model = _hand_model(vocab, previous_role=True)
     items, _ = read_items(smoke_test)
-    data = program_data(items[:1], vocab, part_camera(smoke_test), ActionRule())
+    data = program_data(items[:1], vocab, ActionRule())
     from nsrmp_bench.reference_model.program.training import EpisodeBatch, pad_tokens
 
     batch = EpisodeBatch(data, [0])
