@@ -16,12 +16,10 @@ class NMN2Config(ModelConfig):
     """Everything that shapes an NMN+ v2 run; stored in every checkpoint. The stages,
     batch and optimiser are NSRM v2's, so that the comparison isolates the program."""
 
-    ABSENT: ClassVar[Mapping[str, Any]] = {"object_sizes": False, "local_splitter": False,
-                                           "augment": False}
+    ABSENT: ClassVar[Mapping[str, Any]] = {"object_sizes": False, "augment": False}
 
     concept_dim: int = 32
     object_sizes: bool = True  # perception reads each object's estimated size (metres)
-    local_splitter: bool = False  # the splitter reads a 13-token window, no self-attention
     augment: bool = False  # training crops shifted and scaled a little (perception)
     hidden: int = 64
     heads: int = 2

@@ -15,12 +15,11 @@ __all__ = ["NSRM2Config"]
 class NSRM2Config(ModelConfig):
     """Everything that shapes an NSRM v2 run; stored in every checkpoint."""
 
-    ABSENT: ClassVar[Mapping[str, Any]] = {"object_sizes": False, "local_splitter": False,
-                                           "augment": False, "previous_role": False}
+    ABSENT: ClassVar[Mapping[str, Any]] = {
+        "object_sizes": False, "augment": False, "previous_role": False}
 
     concept_dim: int = 32
     object_sizes: bool = True  # perception reads each object's estimated size (metres)
-    local_splitter: bool = False  # the splitter reads a 13-token window, no self-attention
     augment: bool = False  # training crops shifted and scaled a little (perception)
     word_dim: int = 32
     hidden: int = 64

@@ -85,17 +85,16 @@ def _jitter(crops: Tensor) -> Tensor:
 
 class TokenEncoder(nn.Module):
     """Tokens (B, T) -> contextual states (B, T, dim): two convolutions read word order
-    (a window of 13 tokens), one self-attention layer the whole sequence (``attend``;
-    without it, each state reads its window only). Parallel over tokens, so it trains
-    fast on a CPU (a GRU was 10x slower here)."""
+    (a window of 13 tokens), one self-attention layer the whole sequence. Parallel over
+    tokens, so it trains fast on a CPU (a GRU was 10x slower here)."""
 
-    def __init__(self, vocab_size: int, dim: int = 64, attend: bool = True) -> None:
+    def __init__(self, vocab_size: int, dim: int = 64) -> None:
         super().__init__()
         self.embed = nn.Embedding(vocab_size, dim, padding_idx=PAD)
         self.conv1 = nn.Conv1d(dim, dim, 5, padding=2)
         self.conv2 = nn.Conv1d(dim, dim, 5, padding=4, dilation=2)
-        self.attend = (nn.TransformerEncoderLayer(dim, 4, 2 * dim, dropout=0.0,
-                                                  batch_first=True) if attend else None)
+        self.attend = nn.TransformerEncoderLayer(dim, 4, 2 * dim, dropout=0.0,
+                                                 batch_first=True)
         self.dim = dim
 
     def forward(self, tokens: Tensor) -> Tensor:
@@ -104,8 +103,6 @@ class TokenEncoder(nn.Module):
         keep = (~pad)[..., None].float()
         h = x + torch.relu(self.conv1((x * keep).transpose(1, 2))).transpose(1, 2)
         h = h + torch.relu(self.conv2((h * keep).transpose(1, 2))).transpose(1, 2)
-        if self.attend is None:
-            return h * keep
         out: Tensor = self.attend(h * keep, src_key_padding_mask=pad)
         return out
 
@@ -127,20 +124,16 @@ class Splitter(nn.Module):
       instruction whose probabilities add up to ``s`` has ``round((s - b) / a)``
       boundaries, at its first peaks. Fitted on one- and two-step instructions, it
       extrapolates badly: it over-cut 6-7 step instructions by one in half of them.
-
-    With ``local``, a boundary is read from the 13 tokens around it only (no
-    self-attention): whether a step starts at a word is a local matter (a connector
-    between two references), and a splitter that sees the whole instruction can learn
-    how many steps the training instructions have (one or two) instead."""
+"""
 
     WINDOW = 3
     MAX_STEPS = 12
     calibration: Tensor
     threshold: Tensor
 
-    def __init__(self, vocab_size: int, dim: int = 48, local: bool = False) -> None:
+    def __init__(self, vocab_size: int, dim: int = 48) -> None:
         super().__init__()
-        self.encoder = TokenEncoder(vocab_size, dim, attend=not local)
+        self.encoder = TokenEncoder(vocab_size, dim)
         self.out = nn.Linear(dim, 1)
         nn.init.constant_(self.out.bias, -4.0)  # untrained, it cuts nowhere
         self.register_buffer("calibration", torch.tensor([1.0, 0.0]))

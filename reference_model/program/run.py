@@ -76,8 +76,7 @@ class ProgramModelBase(ProgramPredictionModel):
     @classmethod
     def build_network(cls, config: Any, vocab_size: int,
                       state: Mapping[str, torch.Tensor]) -> ProgramModel:
-        return ProgramModel(cls.step_model(config, vocab_size),
-                            Splitter(vocab_size, local=bool(config.local_splitter)))
+        return ProgramModel(cls.step_model(config, vocab_size), Splitter(vocab_size))
 
     @classmethod
     def plan_training(cls, data: Path, config: Any, seed: int) -> TrainingPlan:

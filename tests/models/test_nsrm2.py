@@ -281,16 +281,3 @@ def test_decoder_keeps_to_the_stacks_the_dsl_allows() -> None:
     assert not full[3, 0] and full[0, 3]
     assert int(full.sum()) == 1
 
-
-def test_local_splitter_reads_a_window_only() -> None:
-    """With ``local``, a boundary's logit reads the tokens within six places of it: a word
-    changed further away changes nothing there; the attending splitter reads them all."""
-    torch.manual_seed(0)
-    tokens = torch.randint(2, 40, (1, 30))
-    far = tokens.clone()
-    far[0, 25] = 41
-    for local, same in ((True, True), (False, False)):
-        splitter = Splitter(42, local=local)
-        with torch.no_grad():
-            a, b = splitter(tokens), splitter(far)
-        assert bool(torch.equal(a[0, 1:12], b[0, 1:12])) is same
