@@ -16,7 +16,8 @@ class NMN2Config(ModelConfig):
     """Everything that shapes an NMN+ v2 run; stored in every checkpoint. The stages,
     batch and optimiser are NSRM v2's, so that the comparison isolates the program."""
 
-    ABSENT: ClassVar[Mapping[str, Any]] = {"object_sizes": False, "augment": False}
+    ABSENT: ClassVar[Mapping[str, Any]] = {"object_sizes": False, "augment": False,
+                                           "query_words": "context"}
 
     concept_dim: int = 32
     object_sizes: bool = True  # perception reads each object's estimated size (metres)
@@ -24,10 +25,19 @@ class NMN2Config(ModelConfig):
     hidden: int = 64
     heads: int = 2
     score: str = "mlp"  # "mlp": an MLP of query * key (nmn-v1's); "dot": their scaled dot
+    # what each head's word attention pools into its query: "embedding", the words' own
+    # embeddings (it learns; see MODEL_CARD.md), or "context", the encoder's states
+    query_words: str = "embedding"
     epochs_warmup: int = 2  # first stage: see StepModel.warmup_parameters
     epochs_single: int = 14
     epochs_joint: int = 3
     batch_size: int = 32
-    lr: float = 2e-3  # nmn-v1's; at NSRM v2's 1e-2 it stayed at chance for 9 epochs
+    lr: float = 2e-3  # nmn-v1's; at 5e-3 and at NSRM v2's 1e-2 it stayed at chance
     joint_lr_scale: float = 0.5  # the joint stage's learning rate, times lr
     threads: int = 2
+
+    def validate(self) -> None:
+        super().validate()
+        self.require(self.score in ("mlp", "dot"), "score", "'mlp' or 'dot'")
+        self.require(self.query_words in ("context", "embedding"), "query_words",
+                     "'context' or 'embedding'")

@@ -8,6 +8,12 @@ objects (the paper's NMN+, as nmn-v1 built it: word attention per head, an MLP o
 times key, heads multiplied); the action from the pooled words. There are no word
 concepts, no roles and no relation operator: whatever structure it uses, it learns from
 attention.
+
+Each head's word attention is read from the encoder's contextual states, but what it
+pools into the query are the attended words' own embeddings (``query_words="embedding"``):
+pooling the contextual states, whose words the self-attention has mixed, the query hardly
+varied with the instruction at the start, and the subject stayed at chance for 16 epochs
+(the first shipped run, ``"context"``; see ``MODEL_CARD.md``).
 """
 
 from __future__ import annotations
@@ -29,9 +35,10 @@ __all__ = ["AttentionStepModel"]
 
 class _RoleAttention(nn.Module):
     """Attention over the objects for one role: each head pools the words with its own
-    word attention, maps the pooled summary and the sentence mean to a query, each object
-    to a key, and scores the object by an MLP of ``query * key``; the heads' scores add
-    (their distributions multiply). Objects are scored independently."""
+    word attention (the states ``h``, or ``words`` where given), maps the pooled summary
+    and the sentence mean to a query, each object to a key, and scores the object by an
+    MLP of ``query * key``; the heads' scores add (their distributions multiply). Objects
+    are scored independently."""
 
     def __init__(self, word_dim: int, object_dim: int, hidden: int, heads: int,
                  score: str = "mlp") -> None:
@@ -52,12 +59,14 @@ class _RoleAttention(nn.Module):
                                    for _ in range(0 if self.dot else heads))
         self.scale = hidden ** -0.5
 
-    def forward(self, h: Tensor, valid: Tensor, objects: Tensor, mask: Tensor) -> Tensor:
+    def forward(self, h: Tensor, valid: Tensor, objects: Tensor, mask: Tensor,
+                words: Tensor | None = None) -> Tensor:
         att = torch.softmax(self.words(h).masked_fill(~valid[..., None], float("-inf")), 1)
         mean = (h * valid[..., None]).sum(1) / valid.sum(1, keepdim=True).clamp_min(1)
+        pool = h if words is None else words
         total = torch.zeros(mask.shape)
         for k, (q, key) in enumerate(zip(self.query, self.key, strict=True)):
-            summary = torch.einsum("rt,rtd->rd", att[..., k], h)
+            summary = torch.einsum("rt,rtd->rd", att[..., k], pool)
             query = q(torch.cat([summary, mean], -1))
             both = query[:, None] * key(objects)
             total = total + (both.sum(-1) * self.scale if self.dot
@@ -91,5 +100,7 @@ class AttentionStepModel(StepModel):
         objects = torch.cat([feats, (centres - mean) / 0.1, previous[..., None]], -1)
         valid = tokens != PAD
         pooled = (code * valid[..., None]).sum(1) / valid.sum(1, keepdim=True).clamp_min(1)
-        return (self.subject(code, valid, objects, mask), self.base(code, valid, objects, mask),
+        words = self.encoder.embed(tokens) if self.cfg.query_words == "embedding" else None
+        return (self.subject(code, valid, objects, mask, words),
+                self.base(code, valid, objects, mask, words),
                 torch.log_softmax(self.action(pooled), -1))
