@@ -16,14 +16,13 @@ class NSRM2Config(ModelConfig):
     """Everything that shapes an NSRM v2 run; stored in every checkpoint."""
 
     ABSENT: ClassVar[Mapping[str, Any]] = {
-        "object_sizes": False, "augment": False, "previous_role": False}
+        "object_sizes": False, "augment": False}
 
     concept_dim: int = 32
     object_sizes: bool = True  # perception reads each object's estimated size (metres)
-    augment: bool = False  # training crops shifted and scaled a little (perception)
+    augment: bool = True  # training crops shifted and scaled a little (perception)
     word_dim: int = 32
     hidden: int = 64
-    previous_role: bool = False  # roles that point at the object the previous step moved
     ordered_roles: bool = True  # a reference reads head, relation, anchor in that order
     # stages (see reference_model/program/training.py)
     epochs_warmup: int = 2  # first stage: see StepModel.warmup_parameters

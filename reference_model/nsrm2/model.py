@@ -42,11 +42,9 @@ from nsrmp_bench.reference_model.tokens import PAD
 __all__ = ["ROLES", "ConceptStepModel"]
 
 ROLES = ("none", "action", "subject", "subject-relation", "subject-anchor", "base",
-         "base-relation", "base-anchor", "subject-previous", "base-previous")
+         "base-relation", "base-anchor")
 _ACTION = 1
 _REFS = ((2, 3, 4), (5, 6, 7))  # (head, relation, anchor) roles of subject and base
-_PREVIOUS = (8, 9)  # "the object the previous step moved" roles (``previous_role``)
-_LOG_EPS = -6.9  # log 1e-3: what a previous-role word says of every other object
 _OFFSET_SCALE = 0.05  # metres: relation weights read offsets in object sizes
 
 
@@ -69,7 +67,7 @@ class ConceptStepModel(StepModel):
         nn.init.zeros_(self.concept.weight)  # no word means anything yet: no noise
         nn.init.zeros_(self.concept_bias.weight)
         self.encoder = TokenEncoder(vocab_size, cfg.hidden)
-        self.roles = nn.Linear(cfg.hidden, len(ROLES) - (0 if cfg.previous_role else 2))
+        self.roles = nn.Linear(cfg.hidden, len(ROLES))
 
     def warmup_parameters(self) -> list[nn.Parameter]:
         """Perception and the words' concepts, with the parser's roles held uniform: with
@@ -102,7 +100,7 @@ class ConceptStepModel(StepModel):
         eye = torch.eye(mask.shape[1], dtype=torch.bool, device=mask.device)
         others = mask[:, None, :] & ~eye[None]
         out = []
-        for k, (head, rel, anchor) in enumerate(_REFS):
+        for head, rel, anchor in _REFS:
             head_w, anchor_w = code[..., head], code[..., anchor]
             if self.cfg.ordered_roles:
                 # a reference reads head, then relation, then anchor: a word is its head
@@ -120,11 +118,6 @@ class ConceptStepModel(StepModel):
             pair = pair + anchor_lp[:, None, :]
             related = torch.logsumexp(pair.masked_fill(~others, float("-inf")), -1)
             score = score + torch.nan_to_num(related, neginf=0.0)
-            if self.cfg.previous_role:
-                # a pointer, not a concept: the words in this role say "the object the
-                # previous step moved" (constant over the objects in a first step)
-                pointer = code[..., _PREVIOUS[k]].sum(-1, keepdim=True)
-                score = score + pointer * (1.0 - previous) * _LOG_EPS
             out.append(_masked_log_softmax(score, mask))
         action = torch.log_softmax(
             torch.einsum("rt,rtk->rk", code[..., _ACTION], self.action(tokens)), -1)

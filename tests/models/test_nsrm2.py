@@ -97,13 +97,12 @@ def test_d1_one_action_encoding(smoke_test: Path) -> None:
     assert decoded.steps[0][0][0] == int(a_lp[0].argmax())
 
 
-def _hand_model(vocab: Vocabulary, previous_role: bool = False) -> ConceptStepModel:
+def _hand_model(vocab: Vocabulary) -> ConceptStepModel:
     """A step model whose words mean by hand, on one-hot object features: ``red`` holds of
     objects 0 and 1, ``blue`` of object 2, ``left`` is "left of" (world -x by more than
     7.5 cm); its parser is fixed: ``red`` heads the subject, ``left`` is its relation,
     ``blue`` its anchor."""
-    model = ConceptStepModel(len(vocab), NSRM2Config(concept_dim=4,
-                                                     previous_role=previous_role))
+    model = ConceptStepModel(len(vocab), NSRM2Config(concept_dim=4))
     idx = {w: i for i, w in enumerate(vocab.words)}
     with torch.no_grad():
         model.concept.weight.zero_()
@@ -116,8 +115,6 @@ def _hand_model(vocab: Vocabulary, previous_role: bool = False) -> ConceptStepMo
         model.relation_bias.weight[idx["left"]] = -1.5 * 20.0
     roles = {idx["red"]: "subject", idx["left"]: "subject-relation",
              idx["blue"]: "subject-anchor", idx["go"]: "none"}
-    if "it" in idx:
-        roles[idx["it"]] = "base-previous"
 
     def fixed_code(pieces: torch.Tensor) -> torch.Tensor:
         code = torch.zeros((*pieces.shape, len(ROLES)))
@@ -173,29 +170,6 @@ def test_d5_relations_read_on_the_current_state(smoke_test: Path) -> None:
     s_lp, _, _ = model.step(model.code(tok), tok, feats, batch.centres,
                             torch.zeros(batch.mask.shape), batch.mask)
     assert int(s_lp[0].argmax()) == 0
-
-
-def test_previous_role_points_at_the_object_the_previous_step_moved(
-        smoke_test: Path) -> None:
-    """A word in the base's previous role ("it") picks the object step 1 moved, and says
-    nothing in a first step (no object was moved: every base equally likely)."""
-    vocab = Vocabulary(("<pad>", "<unk>", "blue", "go", "it", "left", "red"))
-    model = _hand_model(vocab, previous_role=True)
-    items, _ = read_items(smoke_test)
-    data = program_data(items[:1], vocab, ActionRule())
-    from nsrmp_bench.reference_model.program.training import EpisodeBatch, pad_tokens
-
-    batch = EpisodeBatch(data, [0])
-    tok = pad_tokens([vocab.encode("blue it")])
-    feats = model.perception(batch.crops, batch.mask, batch.sizes)
-    moved = torch.zeros(batch.mask.shape)
-    moved[0, 1] = 1.0
-    _, b_lp, _ = model.step(model.code(tok), tok, feats, batch.centres, moved, batch.mask)
-    assert int(b_lp[0].argmax()) == 1
-    assert float(b_lp[0, 1].exp()) > 0.99
-    _, b_first, _ = model.step(model.code(tok), tok, feats, batch.centres,
-                               torch.zeros(batch.mask.shape), batch.mask)
-    assert torch.allclose(b_first[0].exp(), torch.full((3,), 1 / 3))
 
 
 def test_d8_positions_of_a_correct_program_pass_success_3d(
