@@ -1,7 +1,7 @@
 """Generation speed before and after the lean reset and the writer thread, side by side.
 
     python scripts/bench_generate.py [--split paper-v2] [--part test] [--episodes 40]
-                                     [--repeat 5] [--large 4]
+                                     [--repeat 5] [--large 4] [--forked]
 
 "before" is the generator as it was: ``World(lean_reset=False)`` (every instance reloads
 the table, the Panda and their visuals from the shipped files) and
@@ -21,12 +21,17 @@ Printed:
 * 1024x768 (the original generator's image size): seconds per episode end to end, against
   the original's 1.02 s per sample on one core of this machine
   (``shared/reference/nsrm-original-datagen.md`` §7.4).
+
+``--forked`` adds a third variant, "forked": ``World()`` primed once as a template and every
+instance made in a child forked from it (:func:`~nsrmp_bench.generators.world.template.
+run_forked`), so that its ``begin`` reloads nothing. Its CPU time counts the children's.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import tempfile
 import time
@@ -34,6 +39,7 @@ from collections.abc import Callable
 from typing import Any
 
 from nsrmp_bench.generators.generate import make_episode
+from nsrmp_bench.generators.world.template import run_forked
 from nsrmp_bench.generators.world.world import World
 from nsrmp_bench.geometry.default_camera import official_camera
 from nsrmp_bench.split_specs import SplitSpec, load_split
@@ -41,6 +47,13 @@ from nsrmp_bench.storage.writer import ShardWriter
 
 ORIGINAL_S_PER_SAMPLE = 1.02
 """The original generator, 1024x768, one core of this machine (see the module doc)."""
+
+
+def cpu_s() -> float:
+    """CPU seconds of this process and of its reaped children (the forked instances)."""
+    own, kids = (resource.getrusage(who) for who in (resource.RUSAGE_SELF,
+                                                      resource.RUSAGE_CHILDREN))
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
 
 
 class TimedWorld:
@@ -59,6 +72,21 @@ class TimedWorld:
                 self.begin_s += time.process_time() - start
 
         world.begin = begin  # type: ignore[method-assign,unused-ignore]
+        self.forked = False
+
+    def episode(self, spec: SplitSpec, part: str, index: int) -> Any:
+        """Instance ``index``, made here or (``forked``) in a child of the primed world,
+        whose ``begin`` time is added to this one's."""
+        if not self.forked:
+            return make_episode(spec, part, index, self.world)
+
+        def child() -> tuple[Any, float]:
+            self.begin_s = 0.0
+            return make_episode(spec, part, index, self.world), self.begin_s
+
+        episode, begin_s = run_forked(self.world, child)
+        self.begin_s += begin_s
+        return episode
 
 
 def generate_only(spec: SplitSpec, part: str, n: int, timed: TimedWorld) -> tuple[float, float]:
@@ -68,24 +96,24 @@ def generate_only(spec: SplitSpec, part: str, n: int, timed: TimedWorld) -> tupl
     scheduler gave to other jobs; generating is single-threaded, so its CPU time is its
     cost."""
     timed.begin_s = 0.0
-    start = time.process_time()
+    start = cpu_s()
     for i in range(n):
-        make_episode(spec, part, i, timed.world)
-    total = time.process_time() - start
+        timed.episode(spec, part, i)
+    total = cpu_s() - start
     return total / n * 1e3, timed.begin_s / n * 1e3
 
 
-def end_to_end(spec: SplitSpec, part: str, n: int, world: World,
+def end_to_end(spec: SplitSpec, part: str, n: int, timed: TimedWorld,
                background: bool) -> tuple[float, float]:
     """(wall, CPU) seconds per episode of making the first ``n`` instances into a committed
-    shard. The CPU time counts the writer thread too."""
+    shard. The CPU time counts the writer thread (and forked children) too."""
     with tempfile.TemporaryDirectory(prefix="bench-generate-") as out:
-        wall, cpu = time.perf_counter(), time.process_time()
+        wall, cpu = time.perf_counter(), cpu_s()
         with ShardWriter(out, 0, n, split=f"{spec.id}/{part}", background=background) as w:
             for i in range(n):
-                w.add(make_episode(spec, part, i, world))
+                w.add(timed.episode(spec, part, i))
             w.commit()
-        return (time.perf_counter() - wall) / n, (time.process_time() - cpu) / n
+        return (time.perf_counter() - wall) / n, (cpu_s() - cpu) / n
 
 
 def alternate(repeat: int, runs: dict[str, Callable[[], Any]]) -> dict[str, list[Any]]:
@@ -110,60 +138,70 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--large", type=int, default=4,
                         help="episodes per 1024x768 run (0: skip)")
+    parser.add_argument("--forked", action="store_true",
+                        help="add the variant that makes every instance in a forked child")
     args = parser.parse_args()
     spec = load_split(args.split)
     part, n = args.part, args.episodes
     print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
     cam = official_camera(*spec.image)
-    before = TimedWorld(World(cam, lean_reset=False))
-    after = TimedWorld(World(cam))
-    for t in (before, after):  # warm up: assets, cached background, imports
-        make_episode(spec, part, 0, t.world)
+    timed = {"before": TimedWorld(World(cam, lean_reset=False)), "after": TimedWorld(World(cam))}
+    if args.forked:
+        timed["forked"] = TimedWorld(World(cam))
+        timed["forked"].forked = True
+    for t in timed.values():  # warm up: assets, cached background, imports
+        t.episode(spec, part, 0)
+    writer_thread = {"before": False, "after": True, "forked": True}
 
     gen = alternate(args.repeat, {
-        "before": lambda: generate_only(spec, part, n, before),
-        "after": lambda: generate_only(spec, part, n, after),
-    })
+        name: (lambda t=t: generate_only(spec, part, n, t)) for name, t in timed.items()})
     print(f"\n{spec.id}/{part}, instances 0..{n - 1}, {spec.image[0]}x{spec.image[1]}, "
           f"medians of {args.repeat} alternating runs, CPU time per instance")
-    share: dict[str, float] = {}
     for name, rows in gen.items():
         ep = med([r[0] for r in rows])
         begin = med([r[1] for r in rows])
-        share[name] = med([r[1] / r[0] for r in rows])
+        share = med([r[1] / r[0] for r in rows])
         print(f"  {name:6s}: make_episode {ep:6.1f} ms, World.begin {begin:5.1f} ms "
-              f"= {share[name]:.0%} of an episode")
+              f"= {share:.0%} of an episode")
 
     def generate_alone() -> tuple[float, float]:
         wall = time.perf_counter()
-        cpu_ms = generate_only(spec, part, n, after)[0]
+        cpu_ms = generate_only(spec, part, n, timed["after"])[0]
         return (time.perf_counter() - wall) / n, cpu_ms / 1e3
 
     e2e = alternate(args.repeat, {
-        "before": lambda: end_to_end(spec, part, n, before.world, background=False),
-        "after": lambda: end_to_end(spec, part, n, after.world, background=True),
+        **{name: (lambda name=name, t=t: end_to_end(spec, part, n, t, writer_thread[name]))
+           for name, t in timed.items()},
         "after, generate only": generate_alone,
     })
     print("\none worker, end to end (episodes into a committed shard):")
     for k, clock in ((0, "wall"), (1, "CPU")):
         rate = {name: 1.0 / med([r[k] for r in rows]) for name, rows in e2e.items()}
-        pairwise = [b[k] / a[k] for b, a in zip(e2e["before"], e2e["after"], strict=True)]
         alone = [g[k] / a[k] for g, a in zip(e2e["after, generate only"], e2e["after"],
                                              strict=True)]
-        print(f"  {clock:4s}: before {rate['before']:5.1f} ep/s, after {rate['after']:5.1f} ep/s: "
-              f"{med(pairwise):.2f}x pair by pair ({min(pairwise):.2f}-{max(pairwise):.2f}); "
-              f"end to end / generate only (after, {rate['after, generate only']:.1f} ep/s "
-              f"alone): {med(alone):.2f}")
+        print(f"  {clock:4s}: " + ", ".join(f"{name} {rate[name]:5.1f} ep/s" for name in timed)
+              + f"; end to end / generate only (after, {rate['after, generate only']:.1f} "
+              f"ep/s alone): {med(alone):.2f}")
+        for name in timed:
+            if name == "after":
+                continue
+            pairwise = [a[k] / b[k] for b, a in zip(e2e[name], e2e["after"], strict=True)]
+            print(f"        {name} against after, speed pair by pair: {med(pairwise):.2f}x "
+                  f"({min(pairwise):.2f}-{max(pairwise):.2f})")
 
     if args.large > 0:
         big = official_camera(1024, 768)
-        worlds = {"before": World(big, lean_reset=False), "after": World(big)}
-        for w in worlds.values():
-            make_episode(spec, part, 0, w)
+        worlds = {"before": TimedWorld(World(big, lean_reset=False)),
+                  "after": TimedWorld(World(big))}
+        if args.forked:
+            worlds["forked"] = TimedWorld(World(big))
+            worlds["forked"].forked = True
+        for t in worlds.values():
+            t.episode(spec, part, 0)
         large = alternate(max(1, args.repeat // 2), {
-            "before": lambda: end_to_end(spec, part, args.large, worlds["before"], False),
-            "after": lambda: end_to_end(spec, part, args.large, worlds["after"], True),
-        })
+            name: (lambda name=name, t=t: end_to_end(spec, part, args.large, t,
+                                                     writer_thread[name]))
+            for name, t in worlds.items()})
         print(f"\n1024x768, end to end, {args.large} episodes per run:")
         for name, xs in large.items():
             wall, cpu = med([x[0] for x in xs]), med([x[1] for x in xs])

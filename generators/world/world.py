@@ -220,6 +220,9 @@ class World:
         # valid from one instance to the next (render(composite=True)).
         self._scenery_cache: dict[Camera, RenderedImages] = {}
         self._scenery_visuals = True
+        # scenery_visuals of the scenery already built and untouched since (prime()):
+        # the next begin() with the same visuals builds only the objects
+        self._pristine: bool | None = None
         self.begin(())
 
     # -- construction ------------------------------------------------------------------
@@ -341,6 +344,7 @@ class World:
     # -- instance lifecycle --------------------------------------------------------------
     def reset_panda(self) -> None:
         """Put the Panda in its rest pose, at rest, holding it with position control."""
+        self._pristine = None
         if self.panda is None:
             return
         pb, c, body = self.pb, self.client, self.panda
@@ -371,7 +375,10 @@ class World:
         ~1%). Full renders and :meth:`prepare_background` raise until the next ``begin``
         with visuals. Ignored (visuals always loaded) when ``lean_reset`` is off.
         """
-        self._build_scenery(scenery_visuals or not self.lean_reset)
+        visuals = scenery_visuals or not self.lean_reset
+        if self._pristine is not visuals:
+            self._build_scenery(visuals)
+        self._pristine = None
         bodies = self._create_objects(objects)
         n = self.pb.getNumBodies(physicsClientId=self.client)
         self._seg_lut = np.full(n + 2, -1, dtype=np.int16)  # entry 0: PyBullet's -1
@@ -381,9 +388,23 @@ class World:
         self.objects = tuple(objects)
         return self.bodies
 
+    def prime(self, *, scenery_visuals: bool = False) -> None:
+        """Reset the simulation and build the scenery (the first half of :meth:`begin`),
+        so that the next ``begin`` with the same ``scenery_visuals`` only adds the objects.
+
+        The state left is the one every ``begin`` starts the objects from; a process forked
+        here (:mod:`~nsrmp_bench.generators.world.template`) starts each instance from it
+        without reloading the table and the Panda. Placing, stepping or settling in between
+        voids it: the next ``begin`` then resets as usual.
+        """
+        visuals = scenery_visuals or not self.lean_reset
+        self._build_scenery(visuals)
+        self._pristine = visuals
+
     # -- poses and physics ---------------------------------------------------------------
     def place(self, index: int, pose: Pose, lift: float = 0.0) -> None:
         """Teleport object ``index`` to ``pose`` raised by ``lift`` metres, at rest."""
+        self._pristine = None
         pb, c = self.pb, self.client
         body = self.bodies[index]
         x, y, z = pose.position
@@ -414,6 +435,7 @@ class World:
 
     def step(self, n: int = 1) -> None:
         """Advance the simulation by ``n`` fixed time steps."""
+        self._pristine = None
         pb, c = self.pb, self.client
         for _ in range(n):
             pb.stepSimulation(physicsClientId=c)
@@ -432,6 +454,7 @@ class World:
         consecutive steps (at least ``min_steps``), or ``max_steps`` pass, or (when
         ``floor_z`` is given) an object's centre drops below ``floor_z``: it has left the
         table and would fall for ever, there is no floor."""
+        self._pristine = None
         pb, c = self.pb, self.client
         calm = 0
         lin = ang = 0.0
