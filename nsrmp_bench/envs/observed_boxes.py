@@ -56,10 +56,11 @@ def _learned() -> Detector:
     torch = require("torch")
     from nsrmp_bench.detection.height import height_map
     from nsrmp_bench.reference_model.checkpoints import shipped_checkpoint
-    from nsrmp_bench.reference_model.detector import MODEL_ID, DetectorPredictor
+    from nsrmp_bench.reference_model.detector import MODEL_ID, DetectorPredictor, detect_scenes
     from nsrmp_bench.reference_model.detector.scenes import Scenes
 
     model = DetectorPredictor.from_checkpoint(shipped_checkpoint(MODEL_ID))
+    model.set_threads()
 
     def detect(rgb: NDArray[np.uint8], depth: NDArray[np.float32], camera: Camera
                ) -> Detections:
@@ -67,7 +68,7 @@ def _learned() -> Detector:
             ["observation"], torch.from_numpy(np.ascontiguousarray(rgb))[None],
             torch.from_numpy(height_map(depth, camera).astype(np.float16))[None],
             [], [], [])
-        found: Detections = model.detect(scenes)[0]
+        found: Detections = detect_scenes(model.model, scenes, model.config)[0]
         return found
 
     return detect
