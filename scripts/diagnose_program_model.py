@@ -32,10 +32,10 @@ from nsrmp_bench.reference_model.registry import load_model
 from nsrmp_bench.reference_model.tokens import tokenise
 from nsrmp_bench.storage.split_root import resolve_part
 
-_PLACEHOLDER = re.compile(r"<([SR])(\d+)>")
+PLACEHOLDER = re.compile(r"<([SR])(\d+)>")
 
 
-def _connectors() -> list[str]:
+def connectors() -> list[str]:
     from importlib import resources
 
     syn = json.loads(resources.files("nsrmp_bench.generators").joinpath(
@@ -48,7 +48,7 @@ def _connectors() -> list[str]:
 def gold_cuts(text: str, lexed: str, steps: int, connectors: list[str]) -> list[int]:
     """Token positions where steps 2.. start: at the connector between step k-1's last
     reference and step k's first."""
-    marks = list(_PLACEHOLDER.finditer(lexed))
+    marks = list(PLACEHOLDER.finditer(lexed))
     pattern = ""
     pos = 0
     for m in marks:
@@ -96,7 +96,7 @@ def main() -> int:
     model = load_model(args.model, args.checkpoint)
     items, ds = read_items(part)
     split = ds.collection.split
-    connectors = _connectors()
+    words = connectors()
     cuts, actions, grounding = [], [], []
     for i, it in enumerate(items):
         tg = it["targets"]
@@ -105,7 +105,7 @@ def main() -> int:
         grounding.append([(s, r) for _, s, r in g])
         ep = ds.collection.episode(i, images=False)
         cuts.append(gold_cuts(it["inputs"]["instruction"], ep.symbolic.instruction.lexed,
-                              len(g), connectors))
+                              len(g), words))
     rungs = [
         ("model as is", Oracle()),
         ("+ gold split", Oracle(cuts=cuts)),

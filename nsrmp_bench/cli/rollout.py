@@ -123,8 +123,13 @@ def run(args: argparse.Namespace) -> int:
             print(f"rolling out {args.policy} on {len(ids)} instance(s) of {split_id} "
                   f"({args.executor} executor) in {engine.describe()}", file=sys.stderr)
         results = rollout_part(config, ids, engine, tasks=args.workers, progress=progress)
+    label = args.policy
+    if args.policy in BOX_READING | DENSE_POLICIES:  # a shipped model: name its version
+        from nsrmp_bench.reference_model.registry import get_model
+
+        label = get_model(args.policy).id
     header = SubmissionHeader(
-        split=split_id, model=f"{args.policy} (closed-loop rollout)",
+        split=split_id, model=f"{label} (closed-loop rollout)",
         extra={"rollout": {"env": "nsrmp_bench/Tabletop-v0", "policy": args.policy,
                            "executor": args.executor, "step_margin": args.step_margin,
                            "boxes": args.boxes}})

@@ -159,9 +159,10 @@ class ProgramModelBase(ProgramPredictionModel):
         ids = [str(it["id"]) for it in items]
         return decoded_predictions(ids, data, decoded, camera)
 
-    def programs(self, items: Sequence[dict[str, Any]]) -> list[list[tuple[int, int, int]]]:
-        """Per item, its decoded steps."""
-        return self._decode(items)[1].steps
+    def programs(self, items: Sequence[dict[str, Any]],
+                 oracle: Oracle | None = None) -> list[list[tuple[int, int, int]]]:
+        """Per item, its decoded steps (``oracle``: the diagnosis's gold substitutions)."""
+        return self._decode(items, oracle)[1].steps
 
     def _decode(self, items: Sequence[dict[str, Any]],
                 oracle: Oracle | None = None) -> tuple[ProgramData, Decoded]:
