@@ -171,12 +171,24 @@ def _start(argv: list[str], *, session: bool = False) -> Any:
 
 
 def _when_writing(proc: Any, out: Path, after: float) -> set[int]:
-    """Wait until a worker writes a shard begun after ``after`` (a time.time()); the run's
-    processes then."""
+    """Wait until a worker of ``proc`` writes a shard begun after ``after`` (a time.time());
+    the run's processes then. A ``*.tmp`` an earlier, stopped run left (its workers may
+    touch it while they are being stopped) does not count: only one that appears now."""
     import time
 
+    stale = {t.name for t in out.glob("test/*.h5.tmp")}
     deadline = time.monotonic() + 180
-    while not [t for t in out.glob("test/*.h5.tmp") if t.stat().st_mtime >= after]:
+
+    def begun() -> bool:
+        for t in out.glob("test/*.h5.tmp"):
+            try:
+                if t.name not in stale and t.stat().st_mtime >= after:
+                    return True
+            except FileNotFoundError:  # renamed into place meanwhile
+                continue
+        return False
+
+    while not begun():
         assert proc.poll() is None and time.monotonic() < deadline, proc.stderr
         time.sleep(0.05)
     return _descendants(proc.pid)
