@@ -30,7 +30,7 @@ def test_first_move_is_the_open_loop_prediction(smoke_v2_test: Path) -> None:
     items = [ds[i] for i in range(5)]
     predictor = load_predictor("dense")
     assert predictor.model_id == "dense-v2"
-    open_loop = {p.id: p for p in predictor.predict(items, None)}  # type: ignore[arg-type]
+    open_loop = {p.id: p for p in predictor.predict(items)}
     env = TabletopEnv(smoke_v2_test, boxes="gold")
     try:
         policy = make_policy("dense", env)

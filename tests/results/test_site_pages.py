@@ -74,7 +74,7 @@ def test_committed_boards_rank_the_paper_tie_together() -> None:
     rows = read_boards(SITE.parent)["paper-v2/test"]
     ranks = dict(zip((r["model"] for r in rows), shared_ranks(rows), strict=True))
     assert ranks["oracle-v1"] == "" and ranks["noop-v1"] == ""
-    assert ranks["nsrm-v2"] == "1="
+    assert ranks["nsrm-v2"] == "1"  # alone: nsrm-v2 on classical-v1 boxes is below its interval
     assert ranks["nmn-v1"] == ranks["nsrm-v1"] and ranks["nsrm-v1"].endswith("=")
 
 
