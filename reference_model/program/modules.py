@@ -155,12 +155,13 @@ class Splitter(nn.Module):
     def cuts(self, tokens: list[list[int]]) -> list[list[int]]:
         """Token positions where steps 2.. start, per instruction (see the class doc)."""
         probs = torch.sigmoid(self(pad_tokens(tokens)))
+        threshold = float(self.threshold)
         out = []
         for row, tok in zip(probs, tokens, strict=True):
             p = row[: len(tok)]
             peaks = self.peaks(p)
-            if float(self.threshold) >= 0:
-                chosen = [t for t, mass in peaks if mass >= float(self.threshold)]
+            if threshold >= 0:
+                chosen = [t for t, mass in peaks if mass >= threshold]
             else:
                 chosen = [t for t, _ in peaks[: self.boundaries(float(p.sum()))]]
             out.append(sorted(chosen))

@@ -44,16 +44,12 @@ class EpisodeBatch:
         self.crops = sub.crops
         self.mask = sub.object_mask
         n = self.mask.shape[1]
-        centres = torch.zeros((len(rows), n, 3))
-        for i, r in enumerate(rows):
-            c = data.states[r].centres
-            centres[i, : len(c)] = torch.from_numpy(c).float()
-        self.centres = centres
-        sizes = torch.zeros((len(rows), n, 2))
+        self.centres = torch.zeros((len(rows), n, 3))
+        self.sizes = torch.zeros((len(rows), n, 2))
         for i, r in enumerate(rows):
             s = data.states[r]
-            sizes[i, : len(s)] = torch.from_numpy(np.stack([s.sizes, s.heights], 1)).float()
-        self.sizes = sizes
+            self.centres[i, : len(s)] = torch.from_numpy(s.centres).float()
+            self.sizes[i, : len(s)] = torch.from_numpy(np.stack([s.sizes, s.heights], 1)).float()
         self.tokens = [data.tokens[r] for r in rows]
 
 
@@ -267,13 +263,13 @@ def fit_calibration(model: StepModel, splitter: Splitter, data: ProgramData,
         return
     tokens = [data.tokens[r] for r, _ in kept]
     probs = torch.sigmoid(splitter(pad_tokens(tokens)))
-    peaks = [[m for _, m in splitter.peaks(probs[i, : len(t)])] + [0.0, 0.0]
-             for i, t in enumerate(tokens)]
+    # each episode's two largest peaks (0 where it has fewer)
+    top = torch.tensor([([m for _, m in splitter.peaks(probs[i, : len(t)])] + [0.0, 0.0])[:2]
+                        for i, t in enumerate(tokens)], dtype=torch.float64)
+    cut = torch.tensor([c for _, c in kept])
     grid = torch.linspace(0.01, 0.99, 99)
-    right = torch.stack([
-        torch.tensor([(p[0] >= th) == c and p[1] < th for p, (_, c) in zip(peaks, kept,
-                                                                        strict=True)])
-        .sum() for th in grid.tolist()])
+    th = grid.double()[:, None]
+    right = (((top[:, 0] >= th) == cut) & (top[:, 1] < th)).sum(1)
     best = grid[right == right.max()]
     splitter.threshold = ((best.min() + best.max()) / 2).reshape(())
     total = torch.stack([probs[i, : len(t)].sum() for i, t in enumerate(tokens)]).double()
