@@ -92,6 +92,10 @@ for _entry in (
                "(pick-centred crop features cross-correlated with the scene's), trained on "
                "paper-v2/train's single-step episodes", f"{_HERE}.dense:DenseV2Predictor",
                "not CLIPort"),
+    ModelEntry("dense5x-v2", Kind.DENSE, "dense baseline v2, not CLIPort, on 5x the data: "
+               "dense-v2's network trained for the same epochs on dense5x-v2/train "
+               "(selected on paper-v2/val)", f"{_HERE}.dense:Dense5xV2Predictor",
+               "not CLIPort, 5x data"),
     ModelEntry("detector-v1", Kind.DETECTOR, "CenterNet-style object detector (RGB and height "
                "above the table), from scratch; writes detections, not predictions",
                f"{_HERE}.detector:DetectorPredictor"),

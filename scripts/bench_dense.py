@@ -1,10 +1,12 @@
-"""Table II of the paper for the dense baselines (not CLIPort: v1, 5x, v2) and NSRM: the
-public scorer's figures on paper-v2/test, with training time and parameter counts.
+"""Table II of the paper for the dense baselines (not CLIPort: dense-v1, dense5x-v1,
+dense-v2, dense5x-v2) and NSRM: the public scorer's figures on paper-v2/test, with
+training time and parameter counts.
 
 Usage::
 
     OMP_WAIT_POLICY=PASSIVE .venv/bin/python scripts/bench_dense.py --data-root data \
-        [--models dense-v1 dense5x-v1 dense-v2 nsrm] [--splits paper-v2] [--out results/dense]
+        [--models dense-v1 dense5x-v1 dense-v2 dense5x-v2 nsrm] [--splits paper-v2] \
+        [--out results/dense]
 
 It runs ``nsrmp-bench evaluate`` (in this process: each model's shipped checkpoint through
 ``predict``, then the public scorer) on the given splits' test parts, prints identification
@@ -39,7 +41,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data-root", type=Path, required=True)
     parser.add_argument("--models", nargs="+",
-                        default=["dense-v1", "dense5x-v1", "dense-v2", "nsrm"])
+                        default=["dense-v1", "dense5x-v1", "dense-v2", "dense5x-v2", "nsrm"])
     parser.add_argument("--splits", nargs="+", default=["paper-v2"])
     parser.add_argument("--out", type=Path, default=Path("results/dense"))
     args = parser.parse_args()

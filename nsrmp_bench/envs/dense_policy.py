@@ -27,7 +27,8 @@ from nsrmp_bench.errors import InvalidArgument
 
 __all__ = ["DENSE_POLICIES", "DensePolicy"]
 
-DENSE_POLICIES = frozenset({"dense", "dense-v1", "dense-v2", "dense5x", "dense5x-v1"})
+DENSE_POLICIES = frozenset({"dense", "dense-v1", "dense-v2", "dense5x", "dense5x-v1",
+                            "dense5x-v2"})
 """Policy names that run a shipped dense model (``dense`` is the registry's latest)."""
 
 
@@ -47,7 +48,7 @@ class DensePolicy:
         entry = get_model(model_id)
         if entry.kind is not Kind.DENSE:
             msg = (f"policy {model_id!r} is a {entry.kind.value} model; the dense policy "
-                   "runs a dense model (dense, dense-v1, dense-v2, dense5x-v1)")
+                   "runs a dense model (dense, dense-v1, dense-v2, dense5x-v1, dense5x-v2)")
             raise InvalidArgument(msg)
         from nsrmp_bench.reference_model.dense import DensePredictor
 

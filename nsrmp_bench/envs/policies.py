@@ -13,11 +13,11 @@ that is called at the start of every episode. Named policies:
   program, and issues it one DSL step per move; each step's target is computed by the
   environment on the real state after the previous move (closed-loop execution, the
   program is not re-planned).
-* ``dense`` (``dense-v2``; or ``dense-v1``, ``dense5x``/``dense5x-v1``): the shipped dense
-  baseline, a pick and a place point per step from the current observation, done when
-  its move would change nothing (:mod:`nsrmp_bench.envs.dense_policy`). It reads the
-  observation's boxes, gold or a detector's (``rollout`` gives the gold ones unless
-  ``--boxes`` names a detector).
+* ``dense`` (``dense-v2``; or ``dense-v1``, ``dense5x``/``dense5x-v2``, ``dense5x-v1``):
+  the shipped dense baseline, a pick and a place point per step from the current
+  observation, done when its move would change nothing
+  (:mod:`nsrmp_bench.envs.dense_policy`). It reads the observation's boxes, gold or a
+  detector's (``rollout`` gives the gold ones unless ``--boxes`` names a detector).
 * ``module:function``: any importable callable, e.g. ``my_pkg.policies:greedy``. A class
   is instantiated with no arguments. Example::
 

@@ -1,10 +1,11 @@
 """The dense baseline (not CLIPort): a from-scratch, Transporter-style two-stream FCN that
 reads the initial RGB-D and the instruction and predicts a pick and a place heatmap.
 
-Three registered ids share this module: ``dense-v1`` (trained on the single-step episodes
+Four registered ids share this module: ``dense-v1`` (trained on the single-step episodes
 of paper-v2/train), ``dense5x-v1`` (on dense5x-v2/train, five times as many, selected
-on paper-v2/val) and ``dense-v2`` (v1's pick stream with a Transporter transport for the
-place: :mod:`.transport`; the same data as ``dense-v1``). See ``MODEL_CARD.md`` beside
+on paper-v2/val), ``dense-v2`` (v1's pick stream with a Transporter transport for the
+place: :mod:`.transport`; the same data as ``dense-v1``) and ``dense5x-v2`` (``dense-v2``
+on dense5x-v2/train for the same epochs). See ``MODEL_CARD.md`` beside
 this file.
 """
 
@@ -22,7 +23,12 @@ from torch import Tensor
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.reference_model.base import PredictionModel, TrainingPlan
 from nsrmp_bench.reference_model.contract import Kind, ModelConfig
-from nsrmp_bench.reference_model.dense.config import Dense5xConfig, DenseConfig, DenseV2Config
+from nsrmp_bench.reference_model.dense.config import (
+    Dense5xConfig,
+    Dense5xV2Config,
+    DenseConfig,
+    DenseV2Config,
+)
 from nsrmp_bench.reference_model.dense.inference import Inferred, infer
 from nsrmp_bench.reference_model.dense.inputs import DenseInputs, encode_items, encode_part
 from nsrmp_bench.reference_model.dense.model import DenseNet, PickPlaceNet
@@ -30,12 +36,14 @@ from nsrmp_bench.reference_model.dense.transport import TransportNet
 from nsrmp_bench.reference_model.training import Stage
 from nsrmp_bench.scoring.submission import Prediction
 
-__all__ = ["MODEL_ID", "MODEL_ID_5X", "MODEL_ID_V2", "Dense5xConfig", "Dense5xPredictor",
-           "DenseConfig", "DensePredictor", "DenseV2Config", "DenseV2Predictor", "val_accuracy"]
+__all__ = ["MODEL_ID", "MODEL_ID_5X", "MODEL_ID_5X_V2", "MODEL_ID_V2", "Dense5xConfig",
+           "Dense5xPredictor", "Dense5xV2Config", "Dense5xV2Predictor", "DenseConfig",
+           "DensePredictor", "DenseV2Config", "DenseV2Predictor", "val_accuracy"]
 
 MODEL_ID = "dense-v1"
 MODEL_ID_5X = "dense5x-v1"
 MODEL_ID_V2 = "dense-v2"
+MODEL_ID_5X_V2 = "dense5x-v2"
 LABEL = "not CLIPort"
 
 
@@ -218,3 +226,13 @@ class DenseV2Predictor(DensePredictor):
         if cfg.decay_epochs:
             out.append(stage("dense-decay", cfg.decay_epochs, cfg.lr * cfg.decay))
         return out
+
+
+class Dense5xV2Predictor(DenseV2Predictor):
+    """``dense5x-v2``: ``dense-v2`` on ``data/train`` (dense5x-v2, five times the
+    episodes) for the same epochs, selecting on ``data/../paper-v2/val``."""
+
+    model_id = MODEL_ID_5X_V2
+    label = "not CLIPort, 5x data"
+    config_cls = Dense5xV2Config
+    data_hint = "e.g. data/dense5x-v2 (with data/paper-v2 beside it for validation)"

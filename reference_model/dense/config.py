@@ -1,6 +1,6 @@
 """The dense baseline's configuration: sizes, image scale, optimisation and where its
 validation part lies; one frozen dataclass per registered id (``dense-v1``, ``dense5x-v1``,
-``dense-v2``)."""
+``dense-v2``, ``dense5x-v2``)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 from nsrmp_bench.reference_model.contract import ModelConfig
 
-__all__ = ["Dense5xConfig", "DenseConfig", "DenseV2Config"]
+__all__ = ["Dense5xConfig", "Dense5xV2Config", "DenseConfig", "DenseV2Config"]
 
 
 @dataclass(frozen=True)
@@ -66,3 +66,14 @@ class DenseV2Config(DenseConfig):
                      "between 0 and epochs")
         self.require(0 < self.decay <= 1, "decay", "in (0, 1]")
         self.require(self.shift >= 0, "shift", "at least 0")
+
+
+@dataclass(frozen=True)
+class Dense5xV2Config(DenseV2Config):
+    """``dense5x-v2``: ``dense-v2`` on 5x the data (dense5x-v2/train) for the same number
+    of epochs, so five times the gradient steps and compute (the paper's "CLIPort (5x)"
+    row), selected on paper-v2/val beside it under the same data root; one training
+    thread as ``dense-v2`` (two processes read the 10,000 episodes)."""
+
+    val: str = "../paper-v2/val"
+    read_workers: int = 2

@@ -16,7 +16,7 @@ class NSRM2Config(ModelConfig):
     """Everything that shapes an NSRM v2 run; stored in every checkpoint."""
 
     ABSENT: ClassVar[Mapping[str, Any]] = {
-        "object_sizes": False, "augment": False}
+        "object_sizes": False, "augment": False, "relation_after_head": False}
 
     concept_dim: int = 32
     object_sizes: bool = True  # perception reads each object's estimated size (metres)
@@ -24,6 +24,8 @@ class NSRM2Config(ModelConfig):
     word_dim: int = 32
     hidden: int = 64
     ordered_roles: bool = True  # a reference reads head, relation, anchor in that order
+    # a word is a reference's relation only after the reference's head began
+    relation_after_head: bool = True
     # stages (see reference_model/program/training.py)
     epochs_warmup: int = 2  # first stage: see StepModel.warmup_parameters
     epochs_single: int = 14  # one-step programs on episodes where one box changed

@@ -17,7 +17,10 @@ object by the relation to an anchor chosen by the anchor words' conjunction. Wit
 ``ordered_roles`` (the shipped setting) a reference reads in the grammar's order, head
 words before its relation word and anchor words after it: a word's head weight is scaled
 by the probability that no relation word of its reference came before it (the most
-probable one so far), its anchor weight by the probability that one did. Relations
+probable one so far), its anchor weight by the probability that one did; with
+``relation_after_head`` (shipped) a word is a reference's relation only as far as that
+reference's head began before it, so the subject's relation word, earlier in the piece,
+does not silence the base's head words. Relations
 are read on the centres the step is given: the world as the previous steps left it (D5).
 The role marginals are expectations of a linear score, so training and inference read
 the same parse (the argmax role of each token at inference is not needed: the score is
@@ -101,19 +104,24 @@ class ConceptStepModel(StepModel):
         others = mask[:, None, :] & ~eye[None]
         out = []
         for head, rel, anchor in _REFS:
-            head_w, anchor_w = code[..., head], code[..., anchor]
+            head_w, anchor_w, rel_w = code[..., head], code[..., anchor], code[..., rel]
+            if self.cfg.relation_after_head:
+                # a word is the reference's relation only as far as the reference's head
+                # began before it (the most probable head word so far): the other
+                # reference's relation word, earlier in the piece, is not this one's
+                rel_w = rel_w * _before(head_w)
             if self.cfg.ordered_roles:
                 # a reference reads head, then relation, then anchor: a word is its head
                 # as far as no relation word came before it, its anchor as far as one did
                 # (the most probable relation word so far: a sum of the warm-up's uniform
                 # roles would reach 1 within a few tokens and silence every later word)
-                before = F.pad(torch.cummax(code[..., rel], -1).values[..., :-1], (1, 0))
+                before = _before(rel_w)
                 head_w, anchor_w = head_w * (1.0 - before), anchor_w * before
             score = torch.einsum("rt,rtn->rn", head_w, log_filter)
             anchor_lp = _masked_log_softmax(
                 torch.einsum("rt,rtn->rn", anchor_w, log_filter), mask)
-            weights = torch.einsum("rt,rtk->rk", code[..., rel], self.relation(tokens))
-            bias = torch.einsum("rt,rtk->rk", code[..., rel], self.relation_bias(tokens))
+            weights = torch.einsum("rt,rtk->rk", rel_w, self.relation(tokens))
+            bias = torch.einsum("rt,rtk->rk", rel_w, self.relation_bias(tokens))
             pair = F.logsigmoid(torch.einsum("rijk,rk->rij", offsets, weights) + bias[..., None])
             pair = pair + anchor_lp[:, None, :]
             related = torch.logsumexp(pair.masked_fill(~others, float("-inf")), -1)
@@ -122,6 +130,12 @@ class ConceptStepModel(StepModel):
         action = torch.log_softmax(
             torch.einsum("rt,rtk->rk", code[..., _ACTION], self.action(tokens)), -1)
         return out[0], out[1], action
+
+
+def _before(weights: Tensor) -> Tensor:
+    """(R, T): the largest of ``weights`` over the tokens before each token (0 at the
+    first)."""
+    return F.pad(torch.cummax(weights, -1).values[..., :-1], (1, 0))
 
 
 def _masked_log_softmax(x: Tensor, mask: Tensor) -> Tensor:

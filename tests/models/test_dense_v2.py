@@ -125,18 +125,40 @@ def test_tiny_training_learns_to_pick_and_place(tiny_run: Path, smoke_test: Path
     assert card["config"]["crop"] == 7 and "single-step" in card["training_data"]
 
 
-def test_shipped_checkpoint_predicts_a_valid_file(smoke_test: Path, tmp_path: Path) -> None:
-    pred = tmp_path / "dense-v2.jsonl"
-    assert main(["predict", "dense-v2", "--data", str(smoke_test), "--out", str(pred)]) == 0
+@pytest.mark.parametrize("model", ["dense-v2", "dense5x-v2"])
+def test_shipped_checkpoint_predicts_a_valid_file(model: str, smoke_test: Path,
+                                                  tmp_path: Path) -> None:
+    pred = tmp_path / f"{model}.jsonl"
+    assert main(["predict", model, "--data", str(smoke_test), "--out", str(pred)]) == 0
     assert main(["check-submission", str(pred), "--split", "smoke-v2/test", "--data",
                  str(smoke_test)]) == 0
     header = json.loads(pred.read_text().splitlines()[0])["header"]
-    assert header["model"] == "dense-v2"
+    assert header["model"] == model
     assert _summary(pred, smoke_test, tmp_path)["identification"]["n"] == 5
     from importlib import resources
 
     card = resources.files("nsrmp_bench.reference_model").joinpath("checkpoints",
-                                                                   "dense-v2.card.json")
+                                                                   f"{model}.card.json")
     facts = json.loads(card.read_text())
-    assert facts["model"] == "dense-v2" and "not CLIPort" in facts["label"]
+    assert facts["model"] == model and "not CLIPort" in facts["label"]
     assert facts["train_seconds"] > 0 and facts["wall_seconds"] > 0
+
+
+def test_dense5x_v2_is_dense_v2_on_five_times_the_data_for_the_same_epochs() -> None:
+    """The paper's 5x row: the same network and schedule, five times the episodes (so
+    five times the steps); only where validation lies and how many processes read differ.
+    The shipped checkpoints say the same."""
+    from dataclasses import asdict
+    from importlib import resources
+
+    from nsrmp_bench.reference_model.dense.config import Dense5xV2Config, DenseV2Config
+
+    one, five = asdict(DenseV2Config()), asdict(Dense5xV2Config())
+    assert {k for k in one if one[k] != five[k]} == {"val", "read_workers"}
+    assert five["val"] == "../paper-v2/val"
+    ckpts = resources.files("nsrmp_bench.reference_model").joinpath("checkpoints")
+    cards = {m: json.loads(ckpts.joinpath(f"{m}.card.json").read_text())
+             for m in ("dense-v2", "dense5x-v2")}
+    assert cards["dense5x-v2"]["config"]["epochs"] == cards["dense-v2"]["config"]["epochs"]
+    assert cards["dense-v2"]["training_data"].startswith("2002 single-step episodes")
+    assert cards["dense5x-v2"]["training_data"].startswith("10000 single-step episodes")

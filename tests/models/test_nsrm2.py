@@ -172,6 +172,33 @@ def test_d5_relations_read_on_the_current_state(smoke_test: Path) -> None:
     assert int(s_lp[0].argmax()) == 0
 
 
+def test_a_relation_word_before_a_references_head_is_not_its_relation() -> None:
+    """"red left blue, go, blue": the subject's relation word ``left`` also reads a little
+    as the base's relation (the parser is soft). With ``relation_after_head`` it counts
+    for the base only after the base's head began, so the base is the blue object; without
+    it, that leak silences half of the base's head and makes the base "left of
+    something", and the base is a red object."""
+    vocab = Vocabulary(("<pad>", "<unk>", "blue", "go", "left", "red"))
+    idx = {w: i for i, w in enumerate(vocab.words)}
+    tokens = torch.tensor([[idx["red"], idx["left"], idx["blue"], idx["go"], idx["blue"]]])
+    code = torch.zeros((1, 5, len(ROLES)))
+    for t, role, p in ((0, "subject", 1.0), (1, "subject-relation", 0.5),
+                       (1, "base-relation", 0.5), (2, "subject-anchor", 1.0),
+                       (3, "none", 1.0), (4, "base", 1.0)):
+        code[0, t, ROLES.index(role)] = p
+    centres = torch.zeros((1, 3, 3))
+    centres[0, :, 0] = torch.tensor([-0.2, 0.0, 0.2])
+    mask = torch.ones((1, 3), dtype=torch.bool)
+    feats = _OneHot()(torch.zeros(0), mask, torch.zeros(0))
+    bases = {}
+    for flag in (True, False):
+        model = _hand_model(vocab)
+        model.cfg = NSRM2Config(concept_dim=4, relation_after_head=flag)
+        _, b_lp, _ = model.step(code, tokens, feats, centres, torch.zeros((1, 3)), mask)
+        bases[flag] = int(b_lp[0].argmax())
+    assert bases == {True: 2, False: 0}
+
+
 def test_d8_positions_of_a_correct_program_pass_success_3d(
         smoke_test: Path, tmp_path: Path) -> None:
     """The gold program through NSRM v2's action rule: its positions are the objects'

@@ -74,7 +74,10 @@ def test_committed_boards_rank_the_paper_tie_together() -> None:
     rows = read_boards(SITE.parent)["paper-v2/test"]
     ranks = dict(zip((r["model"] for r in rows), shared_ranks(rows), strict=True))
     assert ranks["oracle-v1"] == "" and ranks["noop-v1"] == ""
-    assert ranks["nsrm-v2"] == "1"  # alone: nsrm-v2 on classical-v1 boxes is below its interval
+    # nsrm-v2 on classical-v1 boxes (0.797 [0.782, 0.811]) overlaps nsrm-v2's interval
+    # (0.824 [0.808, 0.838]): they share first place; NMN+ v2 (0.727) is below both
+    assert ranks["nsrm-v2"] == ranks["nsrm-v2+classical-v1"] == "1="
+    assert not ranks["nmn-v2"].startswith("1")
     assert ranks["nmn-v1"] == ranks["nsrm-v1"] and ranks["nsrm-v1"].endswith("=")
 
 
