@@ -282,3 +282,20 @@ def test_decoder_keeps_to_the_stacks_the_dsl_allows() -> None:
     assert not full[3, 0] and full[0, 3]
     assert int(full.sum()) == 1
 
+
+
+def test_splitter_threshold_is_the_low_end_of_what_counts_training_episodes_right() -> None:
+    """Peaks of cut episodes hold 0.6 (their second 0.05), those of uncut ones 0.2: every
+    threshold in (0.2, 0.6] counts all right, and the fit takes the lowest (longer
+    instructions hold weaker peaks). One uncut episode in 200 with a 0.5 peak (teacher
+    noise) does not move it; ten in 200 do, to above them."""
+    from nsrmp_bench.reference_model.program.training import fit_threshold
+
+    def episodes(noisy: int) -> tuple[torch.Tensor, torch.Tensor]:
+        top = [[0.6, 0.05]] * 100 + [[0.2, 0.0]] * (100 - noisy) + [[0.5, 0.0]] * noisy
+        cut = [True] * 100 + [False] * 100
+        return torch.tensor(top, dtype=torch.float64), torch.tensor(cut)
+
+    assert fit_threshold(*episodes(0)) == pytest.approx(0.21)
+    assert fit_threshold(*episodes(1)) == pytest.approx(0.21)
+    assert fit_threshold(*episodes(10)) == pytest.approx(0.51)
