@@ -256,6 +256,7 @@ def fit_threshold(top: Tensor, cut: Tensor) -> float:
     return float(good.min())
 
 
+@torch.no_grad()
 def fit_calibration(model: StepModel, splitter: Splitter, data: ProgramData,
                     rows: Sequence[int]) -> None:
     """Fit the splitter's rule for how many steps an instruction has on training episodes
