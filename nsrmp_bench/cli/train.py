@@ -16,11 +16,12 @@ it is refused before anything is written (``--out`` elsewhere, or ``--restart``)
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from nsrmp_bench.errors import InvalidArgument
 
-__all__ = ["add_arguments", "run"]
+__all__ = ["add_arguments", "run", "test_part"]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -53,6 +54,17 @@ def run(args: argparse.Namespace) -> int:
     cfg = model.config_cls().with_overrides(args.set, entry.id)
     best = model.train(args.data, args.out, seed=args.seed, config=cfg, quiet=args.quiet,
                        restart=args.restart)
-    use = entry.kind.use_after_training(entry.name, str(args.data / "test"), str(best))
+    use = entry.kind.use_after_training(entry.name, str(test_part(args.data, cfg)), str(best))
     print(f"{entry.id}: best checkpoint {best}; use it with: {use}")
     return 0
+
+
+def test_part(data: Path, config: object) -> Path:
+    """The part a freshly trained model is scored on: ``DATA/test``; for training material
+    without a test part that selects on a part beside it (dense5x-v2 selects on
+    ``../paper-v2/val``), the test part beside that one."""
+    test = data / "test"
+    val = getattr(config, "val", None)
+    if test.exists() or not isinstance(val, str):
+        return test
+    return Path(os.path.normpath(data / val)).parent / "test"

@@ -162,3 +162,17 @@ def test_dense5x_v2_is_dense_v2_on_five_times_the_data_for_the_same_epochs() -> 
     assert cards["dense5x-v2"]["config"]["epochs"] == cards["dense-v2"]["config"]["epochs"]
     assert cards["dense-v2"]["training_data"].startswith("2002 single-step episodes")
     assert cards["dense5x-v2"]["training_data"].startswith("10000 single-step episodes")
+
+
+def test_after_training_dense5x_points_at_the_test_part_it_selected_beside(
+        tmp_path: Path) -> None:
+    """dense5x-v2/ has no test part: the command printed after training names
+    paper-v2/test, beside the paper-v2/val it selected on; a split with a test part keeps
+    its own."""
+    from nsrmp_bench.cli.train import test_part
+    from nsrmp_bench.reference_model.dense.config import Dense5xV2Config, DenseV2Config
+
+    (tmp_path / "dense5x-v2" / "train").mkdir(parents=True)
+    (tmp_path / "paper-v2" / "test").mkdir(parents=True)
+    assert test_part(tmp_path / "dense5x-v2", Dense5xV2Config()) == tmp_path / "paper-v2" / "test"
+    assert test_part(tmp_path / "paper-v2", DenseV2Config()) == tmp_path / "paper-v2" / "test"
