@@ -22,6 +22,7 @@ import argparse
 import json
 import re
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -45,17 +46,22 @@ def connectors() -> list[str]:
     return sorted(words, key=len, reverse=True)
 
 
-def gold_cuts(text: str, lexed: str, steps: int, connectors: list[str]) -> list[int]:
-    """Token positions where steps 2.. start: at the connector between step k-1's last
-    reference and step k's first."""
+def match_lexed(text: str, lexed: str) -> tuple[list[re.Match[str]], re.Match[str] | None]:
+    """The lexed instruction's reference placeholders, and the instruction matched against
+    it with one group per placeholder (None where the text does not follow it)."""
     marks = list(PLACEHOLDER.finditer(lexed))
-    pattern = ""
-    pos = 0
+    pattern, pos = "", 0
     for m in marks:
         pattern += re.escape(lexed[pos : m.start()]) + "(.+?)"
         pos = m.end()
     pattern += re.escape(lexed[pos:]) + "$"
-    found = re.match(pattern, text, flags=re.IGNORECASE | re.DOTALL)
+    return marks, re.match(pattern, text, flags=re.IGNORECASE | re.DOTALL)
+
+
+def gold_cuts(text: str, lexed: str, steps: int, connectors: list[str]) -> list[int]:
+    """Token positions where steps 2.. start: at the connector between step k-1's last
+    reference and step k's first."""
+    marks, found = match_lexed(text, lexed)
     if found is None:
         return []
     cuts = []
@@ -74,6 +80,35 @@ def gold_cuts(text: str, lexed: str, steps: int, connectors: list[str]) -> list[
         text_at = found.end(max(before) + 1) + min(hits)[0]
         cuts.append(len(tokenise(text[:text_at])))
     return cuts
+
+
+@dataclass(frozen=True)
+class GoldParts:
+    """Per episode, read from its targets and symbolic record (measurement only): the gold
+    cuts, actions, (subject, base) per step, the steps (action, subject, base) and the
+    symbolic record."""
+
+    cuts: list[list[int]]
+    actions: list[list[int]]
+    grounding: list[list[tuple[int, int]]]
+    steps: list[list[tuple[int, int, int]]]
+    symbolic: list[Any]
+
+
+def gold_parts(items: list[dict[str, Any]], ds: Any) -> GoldParts:
+    """The gold parts of ``items`` (``read_items``'s dataset ``ds`` holds their records)."""
+    words = connectors()
+    out = GoldParts([], [], [], [], [])
+    for i, it in enumerate(items):
+        steps = [(int(a), int(s), int(r)) for a, s, r in it["targets"]["grounded"].tolist()]
+        sym = ds.collection.episode(i, images=False).symbolic
+        out.steps.append(steps)
+        out.actions.append([a for a, _, _ in steps])
+        out.grounding.append([(s, r) for _, s, r in steps])
+        out.cuts.append(gold_cuts(str(it["inputs"]["instruction"]), sym.instruction.lexed,
+                                  len(steps), words))
+        out.symbolic.append(sym)
+    return out
 
 
 def _score(pred: Path, data: Path, tmp: Path) -> dict[str, Any]:
@@ -96,16 +131,8 @@ def main() -> int:
     model = load_model(args.model, args.checkpoint)
     items, ds = read_items(part)
     split = ds.collection.split
-    words = connectors()
-    cuts, actions, grounding = [], [], []
-    for i, it in enumerate(items):
-        tg = it["targets"]
-        g = tg["grounded"].tolist()
-        actions.append([a for a, _, _ in g])
-        grounding.append([(s, r) for _, s, r in g])
-        ep = ds.collection.episode(i, images=False)
-        cuts.append(gold_cuts(it["inputs"]["instruction"], ep.symbolic.instruction.lexed,
-                              len(g), words))
+    gold = gold_parts(items, ds)
+    cuts, actions, grounding = gold.cuts, gold.actions, gold.grounding
     rungs = [
         ("model as is", Oracle()),
         ("+ gold split", Oracle(cuts=cuts)),

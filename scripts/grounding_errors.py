@@ -17,12 +17,11 @@ symbolic records: the model never sees them.
 from __future__ import annotations
 
 import argparse
-import re
 from collections import Counter, defaultdict
 from pathlib import Path
 from typing import Any
 
-from diagnose_program_model import PLACEHOLDER, connectors, gold_cuts
+from diagnose_program_model import gold_parts, match_lexed
 
 from nsrmp_bench.reference_model.program.data import read_items
 from nsrmp_bench.reference_model.program.inference import Oracle
@@ -34,12 +33,7 @@ PRONOUNS = ("it", "that", "that one")
 
 def reference_spans(text: str, lexed: str) -> dict[tuple[str, int], str]:
     """The text of each reference placeholder (``("S", 1)``: step 1's subject)."""
-    marks = list(PLACEHOLDER.finditer(lexed))
-    pattern, pos = "", 0
-    for m in marks:
-        pattern += re.escape(lexed[pos : m.start()]) + "(.+?)"
-        pos = m.end()
-    found = re.match(pattern + re.escape(lexed[pos:]) + "$", text, flags=re.I | re.S)
+    marks, found = match_lexed(text, lexed)
     if found is None:
         return {}
     return {(m.group(1), int(m.group(2))): found.group(j + 1) for j, m in enumerate(marks)}
@@ -77,21 +71,14 @@ def main() -> int:
     args = ap.parse_args()
     model = load_model(args.model, args.checkpoint)
     items, ds = read_items(args.data)
-    words = connectors()
-    cuts, actions, gold, kinds, attrs = [], [], [], [], []
-    for i, it in enumerate(items):
-        steps = [tuple(int(x) for x in row) for row in it["targets"]["grounded"].tolist()]
-        sym = ds.collection.episode(i, images=False).symbolic
-        cuts.append(gold_cuts(str(it["inputs"]["instruction"]), sym.instruction.lexed,
-                              len(steps), words))
-        actions.append([a for a, _, _ in steps])
-        gold.append(steps)
-        kinds.append(reference_kinds(sym))
-        attrs.append([(o.colour, o.shape) for o in sym.scene.objects])
+    parts = gold_parts(items, ds)
+    gold = parts.steps
+    kinds = [reference_kinds(sym) for sym in parts.symbolic]
+    attrs = [[(o.colour, o.shape) for o in sym.scene.objects] for sym in parts.symbolic]
     if not isinstance(model, ProgramModelBase):
         msg = f"{args.model} is not a program model (nsrm-v2, nmn-v2)"
         raise SystemExit(msg)
-    decoded = model.programs(items, Oracle(cuts=cuts, actions=actions))
+    decoded = model.programs(items, Oracle(cuts=parts.cuts, actions=parts.actions))
     right: Counter[tuple[str, str, str]] = Counter()
     total: Counter[tuple[str, str, str]] = Counter()
     confused: Counter[tuple[str, str]] = Counter()

@@ -81,7 +81,7 @@ def run_forked(world: World, fn: Callable[[], T]) -> T:
     ``world.begin`` then adds only the objects. ``fn``'s result (or exception) is pickled
     back. The parent's world is not touched by the child.
     """
-    if world._pristine is None:
+    if not world.primed:
         if not world.has_background():  # cache the empty scene here, not in a child
             world.begin(())
             world.prepare_background()

@@ -401,6 +401,11 @@ class World:
         self._build_scenery(visuals)
         self._pristine = visuals
 
+    @property
+    def primed(self) -> bool:
+        """Whether the scenery is as :meth:`prime` built it, untouched since."""
+        return self._pristine is not None
+
     # -- poses and physics ---------------------------------------------------------------
     def place(self, index: int, pose: Pose, lift: float = 0.0) -> None:
         """Teleport object ``index`` to ``pose`` raised by ``lift`` metres, at rest."""

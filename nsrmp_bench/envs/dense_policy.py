@@ -48,7 +48,7 @@ class DensePolicy:
         entry = get_model(model_id)
         if entry.kind is not Kind.DENSE:
             msg = (f"policy {model_id!r} is a {entry.kind.value} model; the dense policy "
-                   "runs a dense model (dense, dense-v1, dense-v2, dense5x-v1, dense5x-v2)")
+                   f"runs a dense model ({', '.join(sorted(DENSE_POLICIES))})")
             raise InvalidArgument(msg)
         from nsrmp_bench.reference_model.dense import DensePredictor
 

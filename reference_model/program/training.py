@@ -243,7 +243,6 @@ def joint_loss(model: StepModel, splitter: Splitter, data: ProgramData,
     return step_loss + split_loss
 
 
-@torch.no_grad()
 def fit_threshold(top: Tensor, cut: Tensor) -> float:
     """The splitter's threshold (see :func:`fit_calibration`) from each episode's two
     largest peak masses ``top`` (E, 2) and whether the teacher cuts it once ``cut`` (E,):

@@ -31,7 +31,7 @@ def test_forked_instances_are_the_in_process_bytes() -> None:
             # the template's own world is never touched: only the scenery, still primed
             scenery = template.body_count() if scenery is None else scenery
             assert template.body_count() == scenery
-            assert template._pristine is not None
+            assert template.primed
 
 
 def test_a_childs_exception_is_raised_in_the_parent() -> None:
