@@ -6,8 +6,14 @@
 "before" is the generator as it was: ``World(lean_reset=False)`` (every instance reloads
 the table, the Panda and their visuals from the shipped files) and
 ``ShardWriter(background=False)`` (hash, compress and write in the generating thread).
-"after" is the default: ``World()`` and ``ShardWriter()``. Both make the same bytes
-(``tests/world/test_determinism.py``, ``tests/storage/test_writer_background.py``).
+"after" is what ``generate`` runs now: ``World()`` (teleport instances begin with the
+resting arm's collision hulls reduced to their bounding points, ``World.begin(...,
+robot_collision=False)``) and ``ShardWriter(background="process")`` (hash, compress and
+write in a child process forked for the shard: what ``generate`` does with one worker on a
+machine of two cores or more, ``generate.shard_writer_mode``). Both make the same bytes
+(``tests/world/test_determinism.py``, ``tests/world/test_robot_clearance.py``,
+``tests/storage/test_writer_background.py``, and ``generate`` + ``verify`` of every
+committed part).
 
 The two run in this one process, in alternating order (before, after, after, before, ...),
 ``--repeat`` times over the first ``--episodes`` instances of the part; every figure is
@@ -43,7 +49,7 @@ from nsrmp_bench.generators.world.template import run_forked
 from nsrmp_bench.generators.world.world import World
 from nsrmp_bench.geometry.default_camera import official_camera
 from nsrmp_bench.split_specs import SplitSpec, load_split
-from nsrmp_bench.storage.writer import ShardWriter
+from nsrmp_bench.storage.writer import Background, ShardWriter
 
 ORIGINAL_S_PER_SAMPLE = 1.02
 """The original generator, 1024x768, one core of this machine (see the module doc)."""
@@ -104,9 +110,9 @@ def generate_only(spec: SplitSpec, part: str, n: int, timed: TimedWorld) -> tupl
 
 
 def end_to_end(spec: SplitSpec, part: str, n: int, timed: TimedWorld,
-               background: bool) -> tuple[float, float]:
+               background: Background) -> tuple[float, float]:
     """(wall, CPU) seconds per episode of making the first ``n`` instances into a committed
-    shard. The CPU time counts the writer thread (and forked children) too."""
+    shard. The CPU time counts the writer thread or process (and forked children) too."""
     with tempfile.TemporaryDirectory(prefix="bench-generate-") as out:
         wall, cpu = time.perf_counter(), cpu_s()
         with ShardWriter(out, 0, n, split=f"{spec.id}/{part}", background=background) as w:
@@ -151,7 +157,7 @@ def main() -> None:
         timed["forked"].forked = True
     for t in timed.values():  # warm up: assets, cached background, imports
         t.episode(spec, part, 0)
-    writer_thread = {"before": False, "after": True, "forked": True}
+    writer: dict[str, Background] = {"before": False, "after": "process", "forked": "process"}
 
     gen = alternate(args.repeat, {
         name: (lambda t=t: generate_only(spec, part, n, t)) for name, t in timed.items()})
@@ -170,9 +176,11 @@ def main() -> None:
         return (time.perf_counter() - wall) / n, cpu_ms / 1e3
 
     e2e = alternate(args.repeat, {
-        **{name: (lambda name=name, t=t: end_to_end(spec, part, n, t, writer_thread[name]))
+        **{name: (lambda name=name, t=t: end_to_end(spec, part, n, t, writer[name]))
            for name, t in timed.items()},
         "after, generate only": generate_alone,
+        # the writer of the step before: a thread, which waits for PyBullet's GIL
+        "after, writer thread": lambda: end_to_end(spec, part, n, timed["after"], True),
     })
     print("\none worker, end to end (episodes into a committed shard):")
     for k, clock in ((0, "wall"), (1, "CPU")):
@@ -181,8 +189,9 @@ def main() -> None:
                                              strict=True)]
         print(f"  {clock:4s}: " + ", ".join(f"{name} {rate[name]:5.1f} ep/s" for name in timed)
               + f"; end to end / generate only (after, {rate['after, generate only']:.1f} "
-              f"ep/s alone): {med(alone):.2f}")
-        for name in timed:
+              f"ep/s alone): {med(alone):.2f}; after with a writer thread "
+              f"{rate['after, writer thread']:.1f} ep/s")
+        for name in (*timed, "after, writer thread"):
             if name == "after":
                 continue
             pairwise = [a[k] / b[k] for b, a in zip(e2e[name], e2e["after"], strict=True)]
@@ -200,7 +209,7 @@ def main() -> None:
             t.episode(spec, part, 0)
         large = alternate(max(1, args.repeat // 2), {
             name: (lambda name=name, t=t: end_to_end(spec, part, args.large, t,
-                                                     writer_thread[name]))
+                                                     writer[name]))
             for name, t in worlds.items()})
         print(f"\n1024x768, end to end, {args.large} episodes per run:")
         for name, xs in large.items():

@@ -40,6 +40,7 @@ class RobotPlacer:
     trajectory and every step's result are recorded into the rendering."""
 
     executor: Final = ROBOT_EXECUTOR
+    moves_robot: Final = True
 
     def __init__(self, profile: str | MotionProfile = "fast") -> None:
         self.profile = get_profile(profile)

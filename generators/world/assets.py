@@ -22,6 +22,7 @@ import os
 import re
 import tempfile
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, Final
 
@@ -162,8 +163,10 @@ def ensure_dice_textures(directory: Path) -> dict[str, Path]:
     return paths
 
 
+@lru_cache(maxsize=8)
 def dice_mesh(size: float) -> dict[str, list[Any]]:
-    """Vertices, indices, uvs and normals of a cube of edge ``size`` with an atlas UV map.
+    """Vertices, indices, uvs and normals of a cube of edge ``size`` with an atlas UV map
+    (made once per size and shared: read it, do not change it).
 
     Face ``k`` (order of :data:`DICE_FACE_PIPS`) maps to atlas cell ``k`` of a one-row
     atlas, so the map does not depend on whether the renderer flips ``v``.
@@ -319,8 +322,58 @@ def collision_obj(src: Path, directory: Path) -> Path:
 _STAND_IN_VISUAL: Final = '<visual><geometry><box size="0.001 0.001 0.001"/></geometry></visual>'
 
 
+def bounding_points_obj(src: Path, directory: Path) -> Path:
+    """The six points that bound each of ``src``'s collision hulls, as a Wavefront file
+    written into ``directory`` (named by its content's hash).
+
+    For each ``o``/``g`` group, of the positions its faces index (the points Bullet's
+    collision import builds the group's hull from, :func:`collision_obj`), the first that
+    is lowest and the first that is highest along x, y and z, in the order they come;
+    faces are consecutive triples of them. Bullet's hull of these points has the same
+    bounding box as the whole mesh's, to the bit (the box is read off these same extreme
+    coordinates), in a twentieth of the time: what a resting arm that nothing touches is
+    to the broadphase (:meth:`World.begin`'s ``robot_collision``).
+    """
+    positions: list[str] = []
+    groups: list[tuple[str, list[int]]] = []
+    for line in src.read_text("utf-8").splitlines():
+        token = line.lstrip(" \t")
+        head = token[:2]
+        if head in ("v ", "v\t"):
+            positions.append(token)
+        elif head in ("o ", "o\t", "g ", "g\t"):
+            groups.append((token, []))
+        elif head in ("f ", "f\t"):
+            if not groups:
+                groups.append(("o hull", []))
+            groups[-1][1].extend(int(t.split("/", 1)[0]) for t in token[2:].split())
+    out: list[str] = []
+    count = 0
+    for name, used in groups:
+        if not used:
+            continue
+        refs = [i if i > 0 else len(positions) + 1 + i for i in used]
+        coords = [[float(v) for v in positions[i - 1].split()[1:4]] for i in refs]
+        keep: set[int] = set()
+        for axis in range(3):
+            values = [c[axis] for c in coords]
+            keep.add(values.index(min(values)))
+            keep.add(values.index(max(values)))
+        chosen = [positions[refs[k] - 1] for k in sorted(keep)]
+        first = count + 1
+        count += len(chosen)
+        idx = list(range(first, count + 1))
+        idx += [count] * (-len(idx) % 3)
+        out += [name, *chosen]
+        out += [f"f {idx[k]} {idx[k + 1]} {idx[k + 2]}" for k in range(0, len(idx), 3)]
+    data = ("\n".join(out) + "\n").encode("utf-8")
+    digest = hashlib.sha256(data).hexdigest()[:16]
+    return write_atomically(directory / f"{src.stem}_bounds_{digest}.obj", data)
+
+
 def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str], *,
-                    lean_collision: bool = True, visuals: bool = True) -> Path:
+                    lean_collision: bool = True, visuals: bool = True,
+                    bounds: bool = False) -> Path:
     """A Panda URDF whose visuals are its collision meshes, written into ``directory``.
 
     It is pybullet_data's ``franka_panda/panda.urdf`` with every ``package://meshes/...``
@@ -331,6 +384,8 @@ def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str], *,
     (for a world that never draws the arm: PyBullet would otherwise tessellate the
     collision hulls into stand-in visuals, ~1/4 of the arm's load); nothing physical
     changes, ``tests/world/test_determinism.py`` compares the shapes and dynamics.
+    ``bounds=True`` points the ``<collision>`` elements at :func:`bounding_points_obj`
+    copies instead: hulls with the same bounding boxes, for an arm nothing touches.
     """
     src = Path(data_path) / "franka_panda" / "panda.urdf"
     if not src.is_file():
@@ -338,10 +393,12 @@ def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str], *,
         raise FileNotFoundError(msg)
     text = src.read_text("utf-8")
     mesh_dir = (Path(data_path) / "franka_panda" / "meshes" / "collision").resolve()
-    if lean_collision:
+    if lean_collision or bounds:
+        copy = bounding_points_obj if bounds else collision_obj
+
         def lean(block: re.Match[str]) -> str:
             return re.sub(r'package://meshes/collision/([^"]+)',
-                          lambda m: str(collision_obj(mesh_dir / m.group(1), directory)),
+                          lambda m: str(copy(mesh_dir / m.group(1), directory)),
                           block.group(0))
 
         text = re.sub(r"<collision>.*?</collision>", lean, text, flags=re.DOTALL)

@@ -144,6 +144,12 @@ class Placer(Protocol):
         """The ``Rendering.executor`` value of the episodes it realises."""
         ...
 
+    @property
+    def moves_robot(self) -> bool:
+        """Whether it moves the Panda (which then needs its whole collision hulls:
+        ``World.begin(..., robot_collision=...)``)."""
+        ...
+
     def begin(self, world: World) -> None: ...
 
     def place(self, world: World, step: int, index: int, pose: Pose, lift: float) -> None: ...
@@ -155,6 +161,7 @@ class TeleportPlacer:
     """Teleport-and-settle: the moved object appears a hair above its target and drops."""
 
     executor: Final = EXECUTOR
+    moves_robot: Final = False  # the arm stands at rest, clear of the workspace
 
     def begin(self, world: World) -> None:
         """Nothing to reset."""
@@ -343,10 +350,35 @@ def realise(
         msg = f"min_visible must be a fraction in [0, 1], got {min_visible}"
         raise InvalidArgument(msg)
 
+    try:
+        return _realise(scene, states, grounded, world, min_visible, cam, tol, render,
+                        composite, placer, robot_collision=placer.moves_robot)
+    except _NearRobot:
+        # an object came near the arm: the same instance with the arm's hulls whole
+        return _realise(scene, states, grounded, world, min_visible, cam, tol, render,
+                        composite, placer, robot_collision=True)
+
+
+class _NearRobot(Exception):
+    """An instance begun with the arm's hulls reduced put an object near the arm."""
+
+
+def _check_clear_of_robot(world: World) -> None:
+    if not world.robot_collision and world.near_robot():
+        raise _NearRobot
+
+
+def _realise(scene: Scene, states: Sequence[State], grounded: Sequence[GroundedStep],
+             world: World, min_visible: float, cam: Camera, tol: Tolerances, render: bool,
+             composite: bool, placer: Placer, *, robot_collision: bool) -> Rendering:
+    """:func:`realise` once its inputs are checked (``robot_collision``: see
+    :meth:`World.begin`)."""
+    n = len(scene)
     # the scenery is drawn only into the cached background: once cached, composite
     # renders hide it, so it is loaded without visuals (same physics, half the reset)
     world.begin(scene.objects,
-                scenery_visuals=render and not (composite and world.has_background(cam)))
+                scenery_visuals=render and not (composite and world.has_background(cam)),
+                robot_collision=robot_collision)
     placer.begin(world)
     if composite and render:
         world.prepare_background(cam)
@@ -375,9 +407,11 @@ def realise(
                 placed = [subject]
                 _check_target_on_table(scene, k, subject, states[k])
                 placer.place(world, k - 1, subject, states[k][subject], tol.lift)
+            _check_clear_of_robot(world)
             pen = _check_penetration(scene, world, k, placed, tol)
             result = world.settle(max_steps=tol.settle_max_steps,
                                   floor_z=TABLE_TOP_Z - _BELOW_TABLE - 0.1)
+            _check_clear_of_robot(world)
             settled = world.poses()
             if not result.settled:
                 _check_on_table(scene, k, settled, tol)

@@ -81,6 +81,10 @@ TABLE_HALF_SIZE: Final = (0.75, 0.50)
 GROUP_SCENERY: Final = 1
 GROUP_OBJECT: Final = 2
 GROUP_ROBOT: Final = 4
+ROBOT_CLEARANCE: Final = 0.05
+"""Metres between the objects' and the resting Panda's bounding boxes that an instance
+begun with ``robot_collision=False`` keeps (:meth:`World.near_robot`); Bullet's contact
+margins and breaking threshold are a few centimetres at most."""
 _PARK_ORIGIN: Final = (50.0, 50.0, -20.0)
 _PARK_SPACING: Final = 2.0
 
@@ -200,6 +204,10 @@ class World:
         self._bare_panda_urdf = (str(lean_panda_urdf(self._assets, self._data_path,
                                                      visuals=False))
                                  if lean and lean_reset else None)
+        # and of an instance where nothing touches the arm (begin's robot_collision)
+        self._bounds_panda_urdf = (str(lean_panda_urdf(self._assets, self._data_path,
+                                                       visuals=False, bounds=True))
+                                   if lean and lean_reset else None)
         pb = self.pb
         self.client: int = pb.connect(pb.DIRECT)
         if self.client < 0:
@@ -220,15 +228,20 @@ class World:
         # valid from one instance to the next (render(composite=True)).
         self._scenery_cache: dict[Camera, RenderedImages] = {}
         self._scenery_visuals = True
-        # scenery_visuals of the scenery already built and untouched since (prime()):
-        # the next begin() with the same visuals builds only the objects
-        self._pristine: bool | None = None
+        # (scenery_visuals, robot_collision) of the scenery already built and untouched
+        # since (prime()): the next begin() with the same build adds only the objects
+        self._pristine: tuple[bool, bool] | None = None
+        self.robot_collision = True  # the arm's hulls as shipped (see begin)
+        # the Panda's link boxes (min, max corners) at rest, read the first time it loads:
+        # what an instance begun with robot_collision=False keeps clear of (near_robot())
+        self._robot_boxes: NDArray[np.float64] | None = None
         self.begin(())
 
     # -- construction ------------------------------------------------------------------
-    def _build_scenery(self, visuals: bool) -> None:
+    def _build_scenery(self, visuals: bool, robot_collision: bool = True) -> None:
         """Reset the simulation and load the floor, the table and the Panda; their visual
-        shapes only when ``visuals`` (see :meth:`begin`)."""
+        shapes only when ``visuals``, the arm's hulls whole only when ``robot_collision``
+        (see :meth:`begin`)."""
         pb, c = self.pb, self.client
         flags = 0 if visuals else pb.URDF_IGNORE_VISUAL_SHAPES
         pb.resetSimulation(physicsClientId=c)
@@ -256,7 +269,8 @@ class World:
         self._panda_arm = []
         self._panda_fingers = []
         if self.config.panda != "none":
-            self._load_panda(flags)
+            self._load_panda(flags, robot_collision)
+        self.robot_collision = robot_collision
         self._scenery_visuals = visuals
         # visual shapes of the table, floor and robot: (body, link, rgba), hidden while
         # the objects are rendered over a cached empty scene (render(composite=True))
@@ -265,12 +279,14 @@ class World:
             for b in (self.plane, self.table, self.panda) if b is not None
             for d in pb.getVisualShapeData(b, physicsClientId=c))
 
-    def _load_panda(self, flags: int) -> None:
+    def _load_panda(self, flags: int, robot_collision: bool = True) -> None:
         pb, c = self.pb, self.client
         orn = pb.getQuaternionFromEuler([0.0, 0.0, -math.pi / 2.0])
         urdf = self._panda_urdf
         if flags & pb.URDF_IGNORE_VISUAL_SHAPES and self._bare_panda_urdf is not None:
             urdf, flags = self._bare_panda_urdf, flags & ~pb.URDF_IGNORE_VISUAL_SHAPES
+            if not robot_collision and self._bounds_panda_urdf is not None:
+                urdf = self._bounds_panda_urdf
         body = pb.loadURDF(urdf, list(PANDA_BASE), orn, useFixedBase=True, flags=flags,
                            physicsClientId=c)
         self.panda = int(body)
@@ -295,6 +311,11 @@ class World:
                 colour = dark if any(k in name for k in ("hand", "finger", "link0")) else light
                 pb.changeVisualShape(body, link, rgbaColor=colour, physicsClientId=c)
         self.reset_panda()
+        if self._robot_boxes is None:
+            self._robot_boxes = np.array(
+                [pb.getAABB(body, link, physicsClientId=c)
+                 for link in range(-1, pb.getNumJoints(body, physicsClientId=c))],
+                dtype=np.float64)
 
     def _create_objects(self, objects: Sequence[SceneObject]) -> list[int]:
         """One body per object, in scene order, coloured, parked far apart below the floor
@@ -358,7 +379,7 @@ class World:
                                      forces=[200.0] * len(joints), physicsClientId=c)
 
     def begin(self, objects: Sequence[SceneObject], *,
-              scenery_visuals: bool = True) -> tuple[int, ...]:
+              scenery_visuals: bool = True, robot_collision: bool = True) -> tuple[int, ...]:
         """Start an instance with ``objects``: reset the simulation, rebuild the table and
         the Panda (at rest) and create the objects' bodies, parked until :meth:`place`.
 
@@ -374,10 +395,23 @@ class World:
         texture five times (measured: the table's load drops from ~45% of the reset to
         ~1%). Full renders and :meth:`prepare_background` raise until the next ``begin``
         with visuals. Ignored (visuals always loaded) when ``lean_reset`` is off.
+
+        ``robot_collision=False`` (with ``scenery_visuals=False``) builds each of the arm's
+        collision hulls from the six points that bound it
+        (:func:`~nsrmp_bench.generators.world.assets.bounding_points_obj`) instead of
+        every point of its mesh: for teleport-and-settle, where the arm stands folded at
+        rest, clear of the workspace, and touches nothing. Its links keep their bounding
+        boxes to the bit, so the broadphase, the only part of Bullet that sees an arm no
+        object touches, is the same (the same bytes on every committed part; README,
+        "Generation speed"), and the reset skips most of the hull computation, its
+        costliest part. :meth:`near_robot` says whether the objects came near the arm;
+        realising then starts again with its hulls whole. Ignored (hulls whole) with
+        scenery visuals or without ``lean_reset``.
         """
         visuals = scenery_visuals or not self.lean_reset
-        if self._pristine is not visuals:
-            self._build_scenery(visuals)
+        build = (visuals, robot_collision or visuals)
+        if self._pristine != build:
+            self._build_scenery(*build)
         self._pristine = None
         bodies = self._create_objects(objects)
         n = self.pb.getNumBodies(physicsClientId=self.client)
@@ -399,12 +433,28 @@ class World:
         """
         visuals = scenery_visuals or not self.lean_reset
         self._build_scenery(visuals)
-        self._pristine = visuals
+        self._pristine = (visuals, True)
 
     @property
     def primed(self) -> bool:
         """Whether the scenery is as :meth:`prime` built it, untouched since."""
         return self._pristine is not None
+
+    def near_robot(self, margin: float = ROBOT_CLEARANCE) -> bool:
+        """Whether an object's bounding box comes within ``margin`` metres of a box of the
+        Panda's links at rest: where an instance begun with ``robot_collision=False``
+        could touch the arm, whose reduced hulls would then not be its own. False when the
+        Panda was never loaded (``panda="none"``)."""
+        boxes = self._robot_boxes
+        if boxes is None or not self.bodies:
+            return False
+        pb, c = self.pb, self.client
+        objs = np.array([pb.getAABB(b, -1, physicsClientId=c) for b in self.bodies],
+                        dtype=np.float64)  # (N, 2, 3)
+        lo = objs[:, None, 0] - margin  # (N, 1, 3) against (1, L, 3)
+        hi = objs[:, None, 1] + margin
+        apart = (lo > boxes[None, :, 1]) | (hi < boxes[None, :, 0])
+        return bool((~apart.any(-1)).any())
 
     # -- poses and physics ---------------------------------------------------------------
     def place(self, index: int, pose: Pose, lift: float = 0.0) -> None:

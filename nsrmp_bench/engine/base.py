@@ -40,6 +40,12 @@ class Engine(abc.ABC):
     def describe(self) -> str:
         """Where tasks run, in words (for progress lines and errors)."""
 
+    @property
+    def local_processes(self) -> int | None:
+        """How many processes of this machine run tasks at once (None: not known here,
+        e.g. a cluster's workers), so that a task can tell whether cores are left over."""
+        return None
+
     def map_unordered(
         self,
         fn: Callable[..., R],

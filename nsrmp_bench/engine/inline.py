@@ -27,6 +27,10 @@ class InlineEngine(Engine):
     def describe(self) -> str:
         return "this process"
 
+    @property
+    def local_processes(self) -> int:
+        return 1
+
     def _run(self, fn: Callable[..., Any], tasks: Sequence[tuple[Any, ...]],
              tally: ProgressTally) -> Iterator[tuple[int, tuple[Any, int]]]:
         sink = _TallySink(tally)

@@ -54,6 +54,10 @@ class LocalPoolEngine(Engine):
     def describe(self) -> str:
         return f"a local pool of {self.workers} process(es)"
 
+    @property
+    def local_processes(self) -> int:
+        return self.workers
+
     def _run(self, fn: Callable[..., Any], tasks: Sequence[tuple[Any, ...]],
              tally: ProgressTally) -> Iterator[tuple[int, tuple[Any, int]]]:
         ctx = mp.get_context("spawn")

@@ -11,19 +11,33 @@ image chunks are then compressed by Python's ``zlib`` (which lets go of the GIL,
 HDF5's own filter called through h5py) and stored with ``write_direct_chunk``: the same
 filters (byte shuffle for float images, then DEFLATE level 1, the same libz), so the same
 bytes on disk, which ``tests/storage`` checks against the synchronous writer.
+
+A thread still shares the GIL with its caller, and PyBullet holds the GIL through each of
+its calls: a generator that spends most of its time in PyBullet leaves the writer thread
+little room (measured: one worker wrote 27 episodes/s where it generated 57 alone).
+``background="process"`` writes in a child process forked for the shard instead (the
+synchronous writer's code, so the same bytes): the caller only hands each episode over a
+pipe. The child ends with the shard: it commits when told, and aborts (removes the
+``.tmp``) when told to or when the caller's end of the pipe closes (the caller died). A
+daemonic process (a Dask worker) cannot have children; there it is a thread
+(:func:`writer_mode`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
+import multiprocessing as mp
 import os
 import queue
+import signal
 import threading
 import zlib
 from collections.abc import Callable, Mapping
+from multiprocessing.connection import Connection
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import Any, Literal
 
 import h5py
 import numpy as np
@@ -50,7 +64,11 @@ from nsrmp_bench.storage.records import EpisodeEntry, ShardRecord, fsync_dir
 from nsrmp_bench.storage.tolerance import tolerant_summary
 from nsrmp_bench.vocabulary import vocabulary_dict
 
-__all__ = ["ShardWriter", "write_episode_group", "write_shard"]
+__all__ = ["Background", "ShardWriter", "write_episode_group", "write_shard", "writer_mode"]
+
+Background = bool | Literal["thread", "process"]
+"""How a :class:`ShardWriter` writes: ``False`` in :meth:`ShardWriter.add`, ``True`` or
+``"thread"`` on a writer thread, ``"process"`` in a forked child."""
 
 _STR = h5py.string_dtype("utf-8")
 
@@ -158,10 +176,12 @@ class ShardWriter:
     instance index). Leaving the block normally commits, an exception aborts (removes the
     ``.tmp``). A committed shard has its final name and a ``.record.json`` next to it.
 
-    ``background=True`` (the default) hashes and writes on a writer thread (at most
-    ``queue_size`` episodes wait for it; :meth:`add` returns at once); an error there is
-    raised by the next :meth:`add` or by :meth:`commit`. ``background=False`` does it all
-    in :meth:`add`. Both write the same bytes.
+    ``background=True`` (the default, also ``"thread"``) hashes and writes on a writer
+    thread (at most ``queue_size`` episodes wait for it; :meth:`add` returns at once); an
+    error there is raised by the next :meth:`add` or by :meth:`commit`.
+    ``background="process"`` does the same in a child process forked for the shard (see
+    the module doc; a thread where a process cannot fork). ``background=False`` does it
+    all in :meth:`add`. All write the same bytes.
     """
 
     def __init__(
@@ -172,7 +192,7 @@ class ShardWriter:
         *,
         split: str,
         package_version: str = __version__,
-        background: bool = True,
+        background: Background = True,
         queue_size: int = 2,
     ) -> None:
         if queue_size < 1:
@@ -189,14 +209,23 @@ class ShardWriter:
         self._generators: list[str] = []
         self._camera: str | None = None
         self._next = start
-        self.out_dir.mkdir(parents=True, exist_ok=True)
-        self._f: h5py.File | None = h5py.File(self.tmp_path, "w", libver=LIBVER)
-        self._f.attrs["format"] = FORMAT
-        self._f.attrs["schema_version"] = SCHEMA_VERSION
-        self._data = create_group(self._f, "data")
+        if background not in (True, False, "thread", "process"):
+            msg = (f"ShardWriter background must be False, True, 'thread' or 'process', "
+                   f"got {background!r}")
+            raise InvalidArgument(msg)
+        self._child: _Child | None = None
+        self._f: h5py.File | None = None
         self._jobs: queue.Queue[Callable[[], None] | None] | None = None
         self._thread: threading.Thread | None = None
         self._error: BaseException | None = None
+        if background == "process" and writer_mode() == "process":
+            self._child = _Child(out_dir, start, stop, split, package_version)
+            return
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        self._f = h5py.File(self.tmp_path, "w", libver=LIBVER)
+        self._f.attrs["format"] = FORMAT
+        self._f.attrs["schema_version"] = SCHEMA_VERSION
+        self._data = create_group(self._f, "data")
         if background:
             self._jobs = queue.Queue(maxsize=queue_size)
             self._thread = threading.Thread(target=self._drain, name=f"writer {self.file}",
@@ -226,6 +255,8 @@ class ShardWriter:
         self._raise_error()
 
     def _raise_error(self) -> None:
+        if self._child is not None:
+            self._child.raise_error()
         if self._error is not None:
             msg = f"writing shard {self.file} failed: {self._error}"
             if isinstance(self._error, InvalidArgument):  # bad input stays bad input
@@ -249,9 +280,9 @@ class ShardWriter:
         return self._next
 
     def add(self, episode: Episode) -> None:
-        """Write one episode (then flush), or queue it for the writer thread."""
+        """Write one episode (then flush), or queue it for the writer thread or process."""
         self._raise_error()
-        if self._f is None:
+        if self._f is None and (self._child is None or self._child.closed):
             msg = f"shard {self.file} is already committed or aborted; open a new ShardWriter"
             raise InvalidArgument(msg)
         index = episode.symbolic.seed.index
@@ -264,7 +295,9 @@ class ShardWriter:
         if index >= self.stop:
             msg = f"shard {self.file} covers indices [{self.start}, {self.stop}); got {index}"
             raise InvalidArgument(msg)
-        if self._jobs is not None:
+        if self._child is not None:
+            self._child.add(episode)
+        elif self._jobs is not None:
             self._jobs.put(lambda: self._write(episode, index))
         else:
             self._write(episode, index)
@@ -275,6 +308,15 @@ class ShardWriter:
 
     def commit(self) -> ShardRecord:
         """Finish the file, fsync, rename to its final name, write its record."""
+        if self._child is not None and not self._child.closed:
+            if self._next != self.stop:
+                self._child.abort()
+                msg = (
+                    f"shard {self.file} covers indices [{self.start}, {self.stop}) but holds "
+                    f"{self._next - self.start} episodes; add the missing ones before commit"
+                )
+                raise InvalidArgument(msg)
+            return self._child.commit()
         if self._f is None:
             msg = f"shard {self.file} is already committed or aborted"
             raise InvalidArgument(msg)
@@ -329,6 +371,8 @@ class ShardWriter:
 
     def abort(self) -> None:
         """Close and remove the partial file."""
+        if self._child is not None:
+            self._child.abort()
         if self._thread is not None and self._jobs is not None:
             self._error = self._error or RuntimeError("aborted")  # skip what is queued
             self._jobs.put(None)
@@ -350,8 +394,133 @@ class ShardWriter:
     ) -> None:
         if exc_type is not None:
             self.abort()
-        elif self._f is not None:
+        elif self._f is not None or (self._child is not None and not self._child.closed):
             self.commit()
+
+
+def writer_mode() -> Literal["process", "thread"]:
+    """What ``background="process"`` gives in this process: ``"process"`` where it can
+    fork a child (POSIX, and not itself a daemonic process such as a Dask worker),
+    else ``"thread"``."""
+    if "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
+        return "thread"
+    return "process"
+
+
+class _Child:
+    """The parent's end of a shard written in a forked child (``background="process"``).
+
+    Episodes go over a one-way pipe, one at a time (sending the next one waits until the
+    child has begun to read it, so at most one episode waits); the child answers when it
+    has opened the file and once at the end: the record, or the error that stopped it."""
+
+    def __init__(self, out_dir: str | os.PathLike[str], start: int, stop: int, split: str,
+                 package_version: str) -> None:
+        ctx = mp.get_context("fork")
+        self._episodes_r, self._episodes_w = ctx.Pipe(duplex=False)
+        self._answer_r, answer_w = ctx.Pipe(duplex=False)
+        self.file = shard_filename(start, stop)
+        self.tmp_path = Path(out_dir) / (self.file + TMP_SUFFIX)
+        self._proc = ctx.Process(
+            target=_child_main, name=f"writer {self.file}", daemon=True,
+            args=(self._episodes_r, self._episodes_w, answer_w,
+                  (os.fspath(out_dir), start, stop, split, package_version)))
+        self._proc.start()
+        answer_w.close()  # the child's; the parent keeps the reading end
+        self._episodes_r.close()
+        self.closed = False
+        self._error: tuple[bool, str] | None = None
+        ready = self._answer()
+        if ready[0] != "open":
+            self._finish()
+            self.raise_error()
+
+    def _answer(self) -> tuple[str, Any]:
+        """The child's next message; a child that died without one is an error."""
+        try:
+            msg: tuple[str, Any] = self._answer_r.recv()
+        except EOFError:
+            self._proc.join()
+            msg = ("error", (False, f"the writer process exited ({self._proc.exitcode}) "
+                                    "without a word"))
+        if msg[0] == "error":
+            self._error = msg[1]
+        return msg
+
+    def add(self, episode: Episode) -> None:
+        self.raise_error()
+        try:
+            self._episodes_w.send(("add", episode))
+        except (BrokenPipeError, ConnectionResetError):
+            self._answer()  # the child stopped early: its error
+            self._finish()
+            self.raise_error()
+
+    def commit(self) -> ShardRecord:
+        with contextlib.suppress(BrokenPipeError, ConnectionResetError):
+            self._episodes_w.send(("commit", None))
+        msg = self._answer()
+        self._finish()
+        self.raise_error()
+        record: ShardRecord = msg[1]
+        return record
+
+    def abort(self) -> None:
+        if self.closed:
+            return
+        with contextlib.suppress(BrokenPipeError, ConnectionResetError):
+            self._episodes_w.send(("abort", None))
+        self._finish()
+        self.tmp_path.unlink(missing_ok=True)
+
+    def _finish(self) -> None:
+        self._episodes_w.close()
+        self._proc.join()
+        self._answer_r.close()
+        self.closed = True
+
+    def raise_error(self) -> None:
+        if self._error is None and not self.closed and self._answer_r.poll():
+            self._answer()
+        if self._error is not None:
+            invalid, text = self._error
+            msg = f"writing shard {self.file} failed: {text}"
+            if not self.closed:
+                self.abort()
+            if invalid:  # bad input stays bad input
+                raise InvalidArgument(msg)
+            raise RuntimeError(msg)
+
+
+def _child_main(episodes: Connection, parents_end: Connection, answer: Connection,
+                args: tuple[str, int, int, str, str]) -> None:
+    """The forked writer: a synchronous :class:`ShardWriter` fed from the pipe."""
+    parents_end.close()  # so that the parent's death reads as the end of the pipe
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C: the parent aborts the shard
+    out_dir, start, stop, split, version = args
+    writer: ShardWriter | None = None
+    try:
+        writer = ShardWriter(out_dir, start, stop, split=split, package_version=version,
+                             background=False)
+        answer.send(("open", None))
+        while True:
+            try:
+                kind, episode = episodes.recv()
+            except EOFError:  # the parent died or gave up: nothing half-written stays
+                writer.abort()
+                return
+            if kind == "add":
+                writer.add(episode)
+            elif kind == "commit":
+                answer.send(("record", writer.commit()))
+                return
+            else:
+                writer.abort()
+                return
+    except BaseException as exc:  # told to the parent, which raises it
+        if writer is not None:
+            writer.abort()
+        answer.send(("error", (isinstance(exc, InvalidArgument), f"{exc}")))
 
 
 def write_shard(

@@ -72,3 +72,14 @@ def test_resume_after_kill_reaches_the_same_manifest(smoke_dir: Path, tmp_path: 
     assert "root hash" in resumed.stderr
     assert _manifest(part)["root_hash"] == _manifest(smoke_dir / "test")["root_hash"]
     assert not list(part.glob("*.tmp"))
+
+
+def test_a_writer_process_only_where_every_generating_process_leaves_a_core() -> None:
+    from nsrmp_bench.engine import InlineEngine, LocalPoolEngine
+    from nsrmp_bench.generators.generate import shard_writer_mode
+
+    cores = len(os.sched_getaffinity(0))
+    assert shard_writer_mode(InlineEngine()) == ("process" if cores >= 2 else True)
+    assert shard_writer_mode(LocalPoolEngine(cores)) is True  # every core generates
+    assert shard_writer_mode(LocalPoolEngine(max(1, cores // 2))) == (
+        "process" if cores >= 2 else True)

@@ -1,8 +1,15 @@
-"""The writer thread (zlib, direct chunk writes) writes the same bytes as HDF5's filters."""
+"""The writer thread (zlib, direct chunk writes) and the writer process write the same bytes
+as HDF5's filters; an error or a dead caller leaves no file."""
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
+import multiprocessing as mp
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -11,7 +18,7 @@ pytest.importorskip("pybullet")
 
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage import open as open_part
-from nsrmp_bench.storage.writer import ShardWriter
+from nsrmp_bench.storage.writer import Background, ShardWriter, writer_mode
 
 
 def _sha(path: Path) -> str:
@@ -23,8 +30,8 @@ def test_background_writer_writes_the_bytes_of_the_synchronous_one(
 ) -> None:
     with open_part(smoke_v2_test) as part:
         episodes = [part.episode(i) for i in range(len(part))]
-    shas = {}
-    for background in (False, True):
+    shas: dict[Background, tuple[str, str, list[str]]] = {}
+    for background in (False, True, "process"):
         out = tmp_path / f"background-{background}"
         with ShardWriter(out, 0, len(episodes), split="smoke-v2/test",
                          background=background, queue_size=1) as w:
@@ -33,8 +40,8 @@ def test_background_writer_writes_the_bytes_of_the_synchronous_one(
             record = w.commit()
         shas[background] = (_sha(out / record.file), record.sha256,
                             [e.hash for e in record.episodes])
-    assert shas[True] == shas[False]
-    # and both are the shard the generator made
+    assert shas[True] == shas[False] == shas["process"]
+    # and all are the shard the generator made
     committed = next(smoke_v2_test.glob("shard-*.h5"))
     assert shas[True][0] == _sha(committed)
 
@@ -55,3 +62,88 @@ def test_an_error_on_the_writer_thread_surfaces_and_leaves_no_file(
 def test_queue_size_must_be_positive(tmp_path: Path) -> None:
     with pytest.raises(InvalidArgument, match="queue_size must be at least 1, got 0"):
         ShardWriter(tmp_path, 0, 1, split="x/test", queue_size=0)
+
+
+def test_an_error_in_the_writer_process_surfaces_and_leaves_no_file(
+    smoke_v2_test: Path, tmp_path: Path
+) -> None:
+    with open_part(smoke_v2_test) as part:
+        first, second = part.episode(0), part.episode(1)
+    # the second episode under the first one's id: the child finds the name taken
+    clash = dataclasses.replace(second, symbolic=dataclasses.replace(
+        second.symbolic, id=first.symbolic.id))
+    w = ShardWriter(tmp_path, 0, 2, split="smoke-v2/test", background="process")
+    w.add(first)
+    with pytest.raises((RuntimeError, InvalidArgument),
+                       match=r"writing shard shard-0000000-0000002\.h5 failed"):
+        w.add(clash)
+        w.commit()
+    w.abort()
+    assert not list(tmp_path.glob("*.h5*"))
+
+
+def test_a_short_shard_in_the_writer_process_is_refused_and_removed(
+    smoke_v2_test: Path, tmp_path: Path
+) -> None:
+    with open_part(smoke_v2_test) as part:
+        first = part.episode(0)
+    w = ShardWriter(tmp_path, 0, 2, split="smoke-v2/test", background="process")
+    w.add(first)
+    with pytest.raises(InvalidArgument, match="holds 1 episodes; add the missing ones"):
+        w.commit()
+    assert not list(tmp_path.glob("*.h5*"))
+
+
+_KILLED_CALLER = """
+import sys, time
+from pathlib import Path
+from nsrmp_bench.storage import open as open_part
+from nsrmp_bench.storage.writer import ShardWriter
+with open_part(Path(sys.argv[1])) as part:
+    first = part.episode(0)
+w = ShardWriter(sys.argv[2], 0, 2, split="smoke-v2/test", background="process")
+w.add(first)
+print(w._child._proc.pid, flush=True)
+time.sleep(60)
+"""
+
+
+def test_the_writer_process_removes_its_file_when_its_caller_is_killed(
+    smoke_v2_test: Path, tmp_path: Path
+) -> None:
+    caller = subprocess.Popen([sys.executable, "-c", _KILLED_CALLER, str(smoke_v2_test),
+                               str(tmp_path)], stdout=subprocess.PIPE, text=True)
+    assert caller.stdout is not None
+    child = int(caller.stdout.readline())
+    assert list(tmp_path.glob("*.h5.tmp"))  # the shard is being written
+    caller.send_signal(signal.SIGKILL)
+    caller.wait()
+    deadline = time.monotonic() + 20.0
+    while _alive(child):
+        if time.monotonic() > deadline:
+            pytest.fail(f"the writer process {child} outlived its killed caller")
+        time.sleep(0.05)
+    assert not list(tmp_path.glob("*.h5*"))
+
+
+def _alive(pid: int) -> bool:
+    """Whether ``pid`` runs (an exited orphan nobody reaped yet, a zombie, does not)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return state not in ("Z", "X")
+
+
+def _mode(out: mp.SimpleQueue[str]) -> None:
+    out.put(writer_mode())
+
+
+def test_a_daemonic_process_writes_on_a_thread() -> None:
+    ctx = mp.get_context("fork")
+    out: mp.SimpleQueue[str] = ctx.SimpleQueue()
+    for daemon, expected in ((True, "thread"), (False, "process")):
+        proc = ctx.Process(target=_mode, args=(out,), daemon=daemon)
+        proc.start()
+        proc.join()
+        assert out.get() == expected

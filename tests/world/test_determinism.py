@@ -111,3 +111,30 @@ def test_the_lean_reset_loads_the_same_collision_shapes() -> None:
         meshes = [m for m in shapes(lean) if isinstance(m, tuple) and len(m) == 2
                   and isinstance(m[1], tuple) and m[1] and isinstance(m[1][0], tuple)]
         assert sum(len(m[1]) for m in meshes) > 1000  # the hulls' vertices were compared
+
+
+def test_the_reduced_arm_keeps_its_bounding_boxes_dynamics_and_joints() -> None:
+    """``begin(..., robot_collision=False)``: each of the arm's hulls from the six points
+    that bound it; every link's box, dynamics and joint are the shipped arm's to the bit
+    (the broadphase sees the same arm), at a fraction of the hull points."""
+    from nsrmp_bench.generators.world.world import World
+
+    def links(world: World) -> tuple[list[object], int]:
+        pb, c, body = world.pb, world.client, world.panda
+        out: list[object] = []
+        points = 0
+        for link in range(-1, pb.getNumJoints(body, physicsClientId=c)):
+            out.append(pb.getAABB(body, link, physicsClientId=c))
+            out.append(pb.getDynamicsInfo(body, link, physicsClientId=c))
+            if link >= 0:
+                out.append(pb.getJointInfo(body, link, physicsClientId=c))
+            points += pb.getMeshData(body, link, physicsClientId=c)[0]
+        return out, points
+
+    with World(lean_reset=False) as shipped, World() as reduced:
+        reduced.begin((), scenery_visuals=False, robot_collision=False)
+        assert not reduced.robot_collision
+        got, few = links(reduced)
+        want, many = links(shipped)
+        assert got == want
+        assert 0 < few <= 6 * 11 < many
