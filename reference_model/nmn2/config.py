@@ -17,7 +17,7 @@ class NMN2Config(ModelConfig):
     batch and optimiser are NSRM v2's, so that the comparison isolates the program."""
 
     ABSENT: ClassVar[Mapping[str, Any]] = {"object_sizes": False, "augment": False,
-                                           "query_words": "context"}
+                                           "query_words": "context", "splitter_joins": 0}
 
     concept_dim: int = 32
     object_sizes: bool = True  # perception reads each object's estimated size (metres)
@@ -31,6 +31,7 @@ class NMN2Config(ModelConfig):
     epochs_warmup: int = 2  # first stage: see StepModel.warmup_parameters
     epochs_single: int = 14
     epochs_joint: int = 3
+    splitter_joins: int = 2  # NSRM v2's splitter training (see its config)
     batch_size: int = 32
     lr: float = 2e-3  # nmn-v1's; at 5e-3 and at NSRM v2's 1e-2 it stayed at chance
     joint_lr_scale: float = 0.5  # the joint stage's learning rate, times lr

@@ -16,7 +16,8 @@ class NSRM2Config(ModelConfig):
     """Everything that shapes an NSRM v2 run; stored in every checkpoint."""
 
     ABSENT: ClassVar[Mapping[str, Any]] = {
-        "object_sizes": False, "augment": False, "relation_after_head": False}
+        "object_sizes": False, "augment": False, "relation_after_head": False,
+        "splitter_joins": 0}
 
     concept_dim: int = 32
     object_sizes: bool = True  # perception reads each object's estimated size (metres)
@@ -26,6 +27,9 @@ class NSRM2Config(ModelConfig):
     ordered_roles: bool = True  # a reference reads head, relation, anchor in that order
     # a word is a reference's relation only after the reference's head began
     relation_after_head: bool = True
+    # the joint stage's splitter also reads each instruction followed by up to this many
+    # more (see program/training.py joint_loss): longer instructions than training has
+    splitter_joins: int = 2
     # stages (see reference_model/program/training.py)
     epochs_warmup: int = 2  # first stage: see StepModel.warmup_parameters
     epochs_single: int = 14  # one-step programs on episodes where one box changed

@@ -114,7 +114,8 @@ class ProgramModelBase(ProgramPredictionModel):
             return single_loss(model.step, train, rows.tolist())
 
         def joint(rows: torch.Tensor) -> torch.Tensor:
-            return joint_loss(model.step, model.splitter, train, rows.tolist())
+            return joint_loss(model.step, model.splitter, train, rows.tolist(),
+                              joins=int(config.splitter_joins))
 
         stages = [
             Stage("warmup", int(config.epochs_warmup), single_rows,

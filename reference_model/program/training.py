@@ -216,10 +216,16 @@ def teacher_cuts(model: StepModel, data: ProgramData, rows: Sequence[int],
 
 
 def joint_loss(model: StepModel, splitter: Splitter, data: ProgramData,
-               rows: Sequence[int], keep: int = 2) -> Tensor:
+               rows: Sequence[int], keep: int = 2, joins: int = 0) -> Tensor:
     """The joint stage's loss: the splitter learns the teacher's posterior over cuts
     (binary cross-entropy per token, soft targets), the step model the marginal
-    likelihood of the consistent programs over the teacher's ``keep`` best options."""
+    likelihood of the consistent programs over the teacher's ``keep`` best options.
+
+    ``joins`` > 0: the splitter also reads each instruction of the batch followed by the
+    next ``joins`` ones (their tokens one after another, as a longer instruction of up to
+    ``2 * (joins + 1)`` steps), with a boundary at each junction and each part's
+    posterior at its place: training instructions have one or two steps, and a splitter
+    that only ever read those holds weaker peaks in longer ones (under-cut)."""
     posts = teacher_cuts(model, data, rows)
     kept = [(r, sorted(p, key=lambda x: -x[1])[:keep], p)
             for r, p in zip(rows, posts, strict=True) if p]
@@ -231,12 +237,25 @@ def joint_loss(model: StepModel, splitter: Splitter, data: ProgramData,
     ll = torch.stack([torch.logsumexp(sc, 0) for sc in scores])
     ok = torch.isfinite(ll)
     step_loss = -ll[ok].mean() if bool(ok.any()) else feats.sum() * 0.0
-    logits = splitter(pad_tokens(batch.tokens))
+    # the splitter's rows: each instruction alone, then followed by 1, 2, .. joins more
+    rows_tokens: list[list[int]] = []
+    rows_cuts: list[list[tuple[int, float]]] = []
+    for i in range(len(kept)):
+        tokens: list[int] = []
+        cuts: list[tuple[int, float]] = []
+        for k in range(min(joins, len(kept) - 1) + 1):
+            j = (i + k) % len(kept)
+            if tokens:
+                cuts = [*cuts, (len(tokens), 1.0)]
+            cuts = cuts + [(len(tokens) + c, w) for c, w in kept[j][2] if c > 0]
+            tokens = tokens + batch.tokens[j]
+            rows_tokens.append(tokens)
+            rows_cuts.append(cuts)
+    logits = splitter(pad_tokens(rows_tokens))
     target = torch.zeros_like(logits)
-    for i, (_, _, post) in enumerate(kept):
-        for c, w in post:
-            if c > 0:
-                target[i, c] += w
+    for i, cuts in enumerate(rows_cuts):
+        for c, w in cuts:
+            target[i, c] += w
     valid = torch.isfinite(logits)
     split_loss = torch.nn.functional.binary_cross_entropy_with_logits(
         logits[valid], target[valid].clamp(0.0, 1.0))
