@@ -268,9 +268,9 @@ class World:
         self.panda = None
         self._panda_arm = []
         self._panda_fingers = []
+        self.robot_collision = True
         if self.config.panda != "none":
             self._load_panda(flags, robot_collision)
-        self.robot_collision = robot_collision
         self._scenery_visuals = visuals
         # visual shapes of the table, floor and robot: (body, link, rgba), hidden while
         # the objects are rendered over a cached empty scene (render(composite=True))
@@ -286,7 +286,7 @@ class World:
         if flags & pb.URDF_IGNORE_VISUAL_SHAPES and self._bare_panda_urdf is not None:
             urdf, flags = self._bare_panda_urdf, flags & ~pb.URDF_IGNORE_VISUAL_SHAPES
             if not robot_collision and self._bounds_panda_urdf is not None:
-                urdf = self._bounds_panda_urdf
+                urdf, self.robot_collision = self._bounds_panda_urdf, False
         body = pb.loadURDF(urdf, list(PANDA_BASE), orn, useFixedBase=True, flags=flags,
                            physicsClientId=c)
         self.panda = int(body)

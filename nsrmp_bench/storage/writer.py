@@ -219,7 +219,8 @@ class ShardWriter:
         self._thread: threading.Thread | None = None
         self._error: BaseException | None = None
         if background == "process" and writer_mode() == "process":
-            self._child = _Child(out_dir, start, stop, split, package_version)
+            self._child = _Child(self.tmp_path, (os.fspath(out_dir), start, stop, split,
+                                                 package_version))
             return
         self.out_dir.mkdir(parents=True, exist_ok=True)
         self._f = h5py.File(self.tmp_path, "w", libver=LIBVER)
@@ -309,13 +310,11 @@ class ShardWriter:
     def commit(self) -> ShardRecord:
         """Finish the file, fsync, rename to its final name, write its record."""
         if self._child is not None and not self._child.closed:
-            if self._next != self.stop:
+            try:
+                self._check_complete()
+            except InvalidArgument:
                 self._child.abort()
-                msg = (
-                    f"shard {self.file} covers indices [{self.start}, {self.stop}) but holds "
-                    f"{self._next - self.start} episodes; add the missing ones before commit"
-                )
-                raise InvalidArgument(msg)
+                raise
             return self._child.commit()
         if self._f is None:
             msg = f"shard {self.file} is already committed or aborted"
@@ -326,12 +325,7 @@ class ShardWriter:
             self.abort()
             raise
         f = self._f
-        if self._next != self.stop:
-            msg = (
-                f"shard {self.file} covers indices [{self.start}, {self.stop}) but holds "
-                f"{self._next - self.start} episodes; add the missing ones before commit"
-            )
-            raise InvalidArgument(msg)
+        self._check_complete()
         vocab = vocabulary_dict()
         f.attrs["units"] = canonical_json(vocab["units"])
         f.attrs["vocabulary"] = canonical_json(vocab)
@@ -368,6 +362,14 @@ class ShardWriter:
                              tuple(self._entries), generator)
         record.write(self.out_dir)
         return record
+
+    def _check_complete(self) -> None:
+        if self._next != self.stop:
+            msg = (
+                f"shard {self.file} covers indices [{self.start}, {self.stop}) but holds "
+                f"{self._next - self.start} episodes; add the missing ones before commit"
+            )
+            raise InvalidArgument(msg)
 
     def abort(self) -> None:
         """Close and remove the partial file."""
@@ -414,17 +416,17 @@ class _Child:
     child has begun to read it, so at most one episode waits); the child answers when it
     has opened the file and once at the end: the record, or the error that stopped it."""
 
-    def __init__(self, out_dir: str | os.PathLike[str], start: int, stop: int, split: str,
-                 package_version: str) -> None:
+    def __init__(self, tmp_path: Path, args: tuple[str, int, int, str, str]) -> None:
+        """``args``: the child's ShardWriter's (out_dir, start, stop, split, version);
+        ``tmp_path``: the file it writes until it commits."""
         ctx = mp.get_context("fork")
         self._episodes_r, self._episodes_w = ctx.Pipe(duplex=False)
         self._answer_r, answer_w = ctx.Pipe(duplex=False)
-        self.file = shard_filename(start, stop)
-        self.tmp_path = Path(out_dir) / (self.file + TMP_SUFFIX)
+        self.tmp_path = tmp_path
+        self.file = tmp_path.name.removesuffix(TMP_SUFFIX)
         self._proc = ctx.Process(
             target=_child_main, name=f"writer {self.file}", daemon=True,
-            args=(self._episodes_r, self._episodes_w, answer_w,
-                  (os.fspath(out_dir), start, stop, split, package_version)))
+            args=(self._episodes_r, self._episodes_w, answer_w, args))
         self._proc.start()
         answer_w.close()  # the child's; the parent keeps the reading end
         self._episodes_r.close()

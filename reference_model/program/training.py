@@ -30,8 +30,8 @@ from torch import Tensor
 from nsrmp_bench.reference_model.program.data import ProgramData
 from nsrmp_bench.reference_model.program.modules import Splitter, StepModel, pad_tokens
 
-__all__ = ["EpisodeBatch", "episode_batch", "fit_threshold", "joint_loss", "option_scores",
-           "pad_tokens", "single_loss", "teacher_cuts"]
+__all__ = ["EpisodeBatch", "episode_batch", "fit_threshold", "joined_instructions", "joint_loss",
+           "option_scores", "pad_tokens", "single_loss", "teacher_cuts"]
 
 THRESHOLD_TOLERANCE = 0.01
 """The splitter's threshold is the lowest that counts within this fraction of the most
@@ -215,6 +215,31 @@ def teacher_cuts(model: StepModel, data: ProgramData, rows: Sequence[int],
             for opts, sc in zip(options, scores, strict=True)]
 
 
+def joined_instructions(
+    tokens: Sequence[Sequence[int]], posteriors: Sequence[Sequence[tuple[int, float]]],
+    joins: int,
+) -> tuple[list[list[int]], list[list[tuple[int, float]]]]:
+    """The splitter's training rows: each instruction alone, then followed by the next 1,
+    2, .. ``joins`` of the batch (cyclically), with each row's cuts and their weights: a
+    sure boundary at every junction, and each part's posterior over its own cuts (a cut
+    at 0 is no boundary) moved to where the part begins."""
+    rows_tokens: list[list[int]] = []
+    rows_cuts: list[list[tuple[int, float]]] = []
+    n = len(tokens)
+    for i in range(n):
+        row: list[int] = []
+        cuts: list[tuple[int, float]] = []
+        for k in range(min(joins, n - 1) + 1):
+            j = (i + k) % n
+            if row:
+                cuts.append((len(row), 1.0))
+            cuts.extend((len(row) + c, w) for c, w in posteriors[j] if c > 0)
+            row.extend(tokens[j])
+            rows_tokens.append(list(row))
+            rows_cuts.append(list(cuts))
+    return rows_tokens, rows_cuts
+
+
 def joint_loss(model: StepModel, splitter: Splitter, data: ProgramData,
                rows: Sequence[int], keep: int = 2, joins: int = 0) -> Tensor:
     """The joint stage's loss: the splitter learns the teacher's posterior over cuts
@@ -237,20 +262,7 @@ def joint_loss(model: StepModel, splitter: Splitter, data: ProgramData,
     ll = torch.stack([torch.logsumexp(sc, 0) for sc in scores])
     ok = torch.isfinite(ll)
     step_loss = -ll[ok].mean() if bool(ok.any()) else feats.sum() * 0.0
-    # the splitter's rows: each instruction alone, then followed by 1, 2, .. joins more
-    rows_tokens: list[list[int]] = []
-    rows_cuts: list[list[tuple[int, float]]] = []
-    for i in range(len(kept)):
-        tokens: list[int] = []
-        cuts: list[tuple[int, float]] = []
-        for k in range(min(joins, len(kept) - 1) + 1):
-            j = (i + k) % len(kept)
-            if tokens:
-                cuts = [*cuts, (len(tokens), 1.0)]
-            cuts = cuts + [(len(tokens) + c, w) for c, w in kept[j][2] if c > 0]
-            tokens = tokens + batch.tokens[j]
-            rows_tokens.append(tokens)
-            rows_cuts.append(cuts)
+    rows_tokens, rows_cuts = joined_instructions(batch.tokens, [p for _, _, p in kept], joins)
     logits = splitter(pad_tokens(rows_tokens))
     target = torch.zeros_like(logits)
     for i, cuts in enumerate(rows_cuts):
