@@ -10,6 +10,7 @@ returns the batch loss (the loop does backward and the optimiser step).
 from __future__ import annotations
 
 import json
+import math
 import os
 import time
 from collections.abc import Callable, Sequence
@@ -40,6 +41,8 @@ class Stage:
     batch_size: int
     uses_splitter: bool = False  # validate with the splitter (from its stage on)
     start: Callable[[], None] | None = None  # called when the stage begins (or resumes)
+    # the learning rate falls from lr to 0 over the stage on a half cosine, batch by batch
+    decay: bool = False
 
 
 @dataclass
@@ -113,6 +116,10 @@ def train_stages(model: nn.Module, stages: Sequence[Stage], out: Path, *, seed: 
                     total = 0.0
                     for b in range(n_batches):
                         rows = order[b * stage.batch_size:(b + 1) * stage.batch_size]
+                        if stage.decay:
+                            done = (epoch * n_batches + b) / (stage.epochs * n_batches)
+                            for group in optim.param_groups:
+                                group["lr"] = stage.lr * 0.5 * (1.0 + math.cos(math.pi * done))
                         loss = stage.step(rows)
                         optim.zero_grad()
                         loss.backward()

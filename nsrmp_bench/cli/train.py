@@ -11,6 +11,10 @@ interrupted run), ``config.json``, ``log.jsonl`` (one line per epoch) and ``card
 (the model card). ``--set key=value`` overrides a config field (e.g. for a short run),
 parsed by the field's type. Rerunning into the same ``--out`` resumes; with another config
 it is refused before anything is written (``--out`` elsewhere, or ``--restart``).
+A program model of several ``members`` (``nsrm-v2``, ``nmn-v2``: three by default) trains
+each member as a run of its own in ``--out/member-K``, in parallel (one process each, with
+the members' progress in their logs), then writes the run's files for the members read as
+one.
 """
 
 from __future__ import annotations

@@ -17,7 +17,8 @@ class NMN2Config(ModelConfig):
     batch and optimiser are NSRM v2's, so that the comparison isolates the program."""
 
     ABSENT: ClassVar[Mapping[str, Any]] = {"object_sizes": False, "augment": False,
-                                           "query_words": "context", "splitter_joins": 0}
+                                           "query_words": "context", "splitter_joins": 0,
+                                           "joint_decay": False, "members": 1}
 
     concept_dim: int = 32
     object_sizes: bool = True  # perception reads each object's estimated size (metres)
@@ -34,11 +35,16 @@ class NMN2Config(ModelConfig):
     splitter_joins: int = 2  # NSRM v2's splitter training (see its config)
     batch_size: int = 32
     lr: float = 2e-3  # nmn-v1's; at 5e-3 and at NSRM v2's 1e-2 it stayed at chance
-    joint_lr_scale: float = 0.5  # the joint stage's learning rate, times lr
-    threads: int = 2
+    # the joint stage's rate, times lr, decaying to 0; members read as one; torch threads
+    # per member's process: NSRM v2's (see its config)
+    joint_lr_scale: float = 0.5
+    joint_decay: bool = True
+    members: int = 3
+    threads: int = 1
 
     def validate(self) -> None:
         super().validate()
         self.require(self.score in ("mlp", "dot"), "score", "'mlp' or 'dot'")
         self.require(self.query_words in ("context", "embedding"), "query_words",
                      "'context' or 'embedding'")
+        self.require(self.members >= 1, "members", "at least 1")

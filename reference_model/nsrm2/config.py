@@ -17,7 +17,7 @@ class NSRM2Config(ModelConfig):
 
     ABSENT: ClassVar[Mapping[str, Any]] = {
         "object_sizes": False, "augment": False, "relation_after_head": False,
-        "splitter_joins": 0}
+        "splitter_joins": 0, "joint_decay": False, "members": 1}
 
     concept_dim: int = 32
     object_sizes: bool = True  # perception reads each object's estimated size (metres)
@@ -37,4 +37,13 @@ class NSRM2Config(ModelConfig):
     batch_size: int = 32
     lr: float = 1e-2
     joint_lr_scale: float = 0.5  # the joint stage's learning rate, times lr
-    threads: int = 2
+    # the joint stage's learning rate falls to 0 on a half cosine (reference_model/training.py)
+    joint_decay: bool = True
+    # models trained apart (seeds seed*members+k), one process each, read as one: the
+    # mean of their log-probabilities (reference_model/program/ensemble.py)
+    members: int = 3
+    threads: int = 1  # torch threads per process (each member trains in its own)
+
+    def validate(self) -> None:
+        super().validate()
+        self.require(self.members >= 1, "members", "at least 1")

@@ -95,7 +95,7 @@ def decode(model: StepModel, splitter: Splitter, data: ProgramData, rule: Action
                 else splitter.cuts(batch.tokens))
         pieces = [[tok[a:b] for a, b in zip([0, *c], [*c, len(tok)], strict=True)]
                   for tok, c in zip(batch.tokens, cuts, strict=True)]
-        feats = model.perception(batch.crops, batch.mask, batch.sizes)
+        feats = model.features(batch.crops, batch.mask, batch.sizes)
         n_obj = batch.mask.shape[1]
         centres = [data.states[r].centres.copy() for r in rows]
         previous = torch.zeros((len(rows), n_obj))

@@ -196,6 +196,11 @@ class StepModel(nn.Module, metaclass=ABCMeta):
         """What the first stage trains (default: everything)."""
         return list(self.parameters())
 
+    def features(self, crops: Tensor, mask: Tensor, sizes: Tensor) -> Tensor:
+        """Object features (B, N, F) for :meth:`step` (default: the perception's)."""
+        out: Tensor = self.perception(crops, mask, sizes)
+        return out
+
     @abstractmethod
     def code(self, pieces: Tensor) -> Tensor:
         """Per-piece codes (P, T, C) of PAD-padded pieces (P, T)."""

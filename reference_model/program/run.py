@@ -12,6 +12,8 @@ in the joint stage.
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import time
 from abc import abstractmethod
 from collections.abc import Iterator, Mapping, Sequence
@@ -21,7 +23,15 @@ from typing import Any, ClassVar
 import torch
 
 from nsrmp_bench.dataset import shared_camera
-from nsrmp_bench.reference_model.base import ProgramPredictionModel, TrainingPlan
+from nsrmp_bench.reference_model.base import (
+    BEST,
+    CARD,
+    CONFIG,
+    ProgramPredictionModel,
+    TrainingPlan,
+)
+from nsrmp_bench.reference_model.checkpoints import save_checkpoint
+from nsrmp_bench.reference_model.contract import ModelConfig
 from nsrmp_bench.reference_model.encoded import encode_targets
 from nsrmp_bench.reference_model.program.data import (
     ProgramData,
@@ -29,6 +39,12 @@ from nsrmp_bench.reference_model.program.data import (
     program_data,
     read_items,
     with_training_signal,
+)
+from nsrmp_bench.reference_model.program.ensemble import (
+    EnsembleSplitter,
+    EnsembleStep,
+    member_seeds,
+    train_members,
 )
 from nsrmp_bench.reference_model.program.inference import (
     Decoded,
@@ -45,8 +61,10 @@ from nsrmp_bench.reference_model.program.training import (
     single_loss,
 )
 from nsrmp_bench.reference_model.tokens import Vocabulary
-from nsrmp_bench.reference_model.training import Stage
+from nsrmp_bench.reference_model.training import LOG, Stage
+from nsrmp_bench.results.model_cards import TrainingCard, write_training_card
 from nsrmp_bench.scoring.submission import Prediction
+from nsrmp_bench.storage.records import atomic_write_text
 
 __all__ = ["INPUTS", "SUPERVISION", "ProgramModelBase"]
 
@@ -65,7 +83,7 @@ class ProgramModelBase(ProgramPredictionModel):
     inputs = INPUTS
     tiny_overrides: ClassVar[dict[str, object]] = {
         "epochs_warmup": 3, "epochs_single": 1, "epochs_joint": 1, "batch_size": 8,
-        "threads": 1}
+        "threads": 1, "members": 1}
     model: ProgramModel
 
     @classmethod
@@ -76,23 +94,84 @@ class ProgramModelBase(ProgramPredictionModel):
     @classmethod
     def build_network(cls, config: Any, vocab_size: int,
                       state: Mapping[str, torch.Tensor]) -> ProgramModel:
-        return ProgramModel(cls.step_model(config, vocab_size), Splitter(vocab_size))
+        members = int(config.members)
+        if members == 1:
+            return ProgramModel(cls.step_model(config, vocab_size), Splitter(vocab_size))
+        return ProgramModel(
+            EnsembleStep([cls.step_model(config, vocab_size) for _ in range(members)]),
+            EnsembleSplitter([Splitter(vocab_size) for _ in range(members)]))
+
+    @classmethod
+    def _train(cls, data: Path, out: Path, cfg: ModelConfig, seed: int, threads: int,
+               quiet: bool) -> Path:
+        """One run, or with ``members`` > 1 that many runs in parallel (``out/member-K``,
+        seeds :func:`~.ensemble.member_seeds`) put together into one checkpoint and
+        validated as it predicts; its log holds every member's epochs (``member``) and the
+        ensemble's line."""
+        members = int(getattr(cfg, "members", 1))
+        if members == 1:
+            return super()._train(data, out, cfg, seed, threads, quiet)
+        t0 = time.perf_counter()
+        fresh = not (out / CONFIG).exists()  # a new run, or --restart deleted it
+        out.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(out / CONFIG, json.dumps(cfg.to_dict(), indent=1) + "\n")
+        single = dataclasses.replace(cfg, members=1)  # type: ignore[type-var]
+        seeds = member_seeds(seed, members)
+        if not quiet:
+            print(f"{cls.model_id}: training {members} members in parallel (seeds "
+                  f"{', '.join(map(str, seeds))}) into {out}/member-0..{members - 1}")
+        bests = train_members(cls.model_id, data, out, single.to_dict(), seed, members,
+                              restart=fresh)
+        loaded = [cls.from_checkpoint(b) for b in bests]
+        network = ProgramModel(EnsembleStep([m.model.step for m in loaded]),
+                               EnsembleSplitter([m.model.splitter for m in loaded]))
+        network.rule = loaded[0].model.rule
+        vocab = loaded[0].vocab
+        network.eval()
+        val_items, val_cats, selected_on = selection_items(data)
+        val = with_training_signal(program_data(val_items, vocab, network.rule), val_items,
+                                   val_cats, network.rule)
+        decoded = decode(network.step, network.splitter, val, network.rule)
+        score = decoded_iou_m(val, decoded)
+        gold = [[tuple(int(x) for x in row) for row in it["targets"]["grounded"].tolist()]
+                for it in val_items]
+        cards = [json.loads((b.parent / CARD).read_text("utf-8")) for b in bests]
+        lines = [{**json.loads(line), "member": k}
+                 for k, b in enumerate(bests)
+                 for line in (b.parent / LOG).read_text("utf-8").splitlines()]
+        lines.append({"stage": "ensemble", "members": members, "val_iou_m": round(score, 5),
+                      "best": True, "seconds": round(time.perf_counter() - t0, 1),
+                      **{k: round(v, 5) for k, v in
+                         validation_figures(val, decoded, gold).items()}})
+        atomic_write_text(out / LOG, "".join(json.dumps(x) + "\n" for x in lines))
+        best = out / BEST
+        save_checkpoint(best, cls.model_id, cfg.to_dict(), vocab.to_list(),
+                        network.state_dict(), {"seed": seed, "data": str(data),
+                                               "member_seeds": seeds})
+        train_seconds = sum(float(c["train_seconds"]) for c in cards)
+        card = TrainingCard(
+            model=cls.model_id, label=cls.label,
+            training_data=(f"{cards[0]['training_data']}; {members} members (seeds "
+                           f"{', '.join(map(str, seeds))}) trained in parallel, each "
+                           f"selected on {selected_on}, read as one"),
+            train_seconds=round(train_seconds, 1),
+            wall_seconds=round(time.perf_counter() - t0, 1),
+            read_seconds=round(sum(float(c.get("read_seconds") or 0.0) for c in cards), 1),
+            parameters=sum(p.numel() for p in network.parameters()),
+            score_name="val IoU-M", best_score=round(score, 4), seed=seed, threads=threads,
+            supervision=cls.supervision, inputs=cls.inputs, config=cfg.to_dict())
+        write_training_card(out / CARD, card)
+        return best
 
     @classmethod
     def plan_training(cls, data: Path, config: Any, seed: int) -> TrainingPlan:
         t0 = time.perf_counter()
-        train_dir, val_dir = data / "train", data / "val"
-        items, ds = read_items(train_dir)
+        items, ds = read_items(data / "train")
         vocab = Vocabulary.build(str(it["inputs"]["instruction"]) for it in items)
         cats = ds.collection.index.set_index("id").to_dict("index")
-        if not (val_dir / "manifest.json").exists():
-            cut = len(items) - max(1, len(items) // 10)
-            items, val_items, val_cats = items[:cut], items[cut:], cats
-            selected_on = "the last tenth of train"
-        else:
-            val_items, vds = read_items(val_dir)
-            val_cats = vds.collection.index.set_index("id").to_dict("index")
-            selected_on = "val"
+        val_items, val_cats, selected_on = selection_items(data, (items, cats))
+        if selected_on != "val":
+            items = items[: len(items) - len(val_items)]
         # the states depend on the rule's fixed centre only, so one encoding serves the fit
         train = program_data(items, vocab, ActionRule())
         encode_targets(train.enc, items, cats)
@@ -127,7 +206,8 @@ class ProgramModelBase(ProgramPredictionModel):
             Stage("joint", int(config.epochs_joint), joint_rows,
                   lambda: list(model.parameters()), joint,
                   float(config.lr) * float(config.joint_lr_scale),
-                  int(config.batch_size), uses_splitter=True),
+                  int(config.batch_size), uses_splitter=True,
+                  decay=bool(config.joint_decay)),
         ]
         gold = [[tuple(int(x) for x in row) for row in it["targets"]["grounded"].tolist()]
                 for it in val_items]  # for the log's figures only
@@ -171,6 +251,23 @@ class ProgramModelBase(ProgramPredictionModel):
         data = program_data(list(items), self.vocab, self.model.rule)
         return data, decode(self.model.step, self.model.splitter, data, self.model.rule,
                             oracle)
+
+
+def selection_items(
+    data: Path, train: tuple[list[dict[str, Any]], dict[str, Any]] | None = None,
+) -> tuple[list[dict[str, Any]], dict[str, Any], str]:
+    """The episodes a run selects on, their categories, and what they are called: ``val``,
+    or where the split has none the last tenth of ``train`` (read here unless given as
+    items and categories)."""
+    val_dir = data / "val"
+    if (val_dir / "manifest.json").exists():
+        val_items, vds = read_items(val_dir)
+        return val_items, vds.collection.index.set_index("id").to_dict("index"), "val"
+    if train is None:
+        items, ds = read_items(data / "train")
+        train = items, ds.collection.index.set_index("id").to_dict("index")
+    items, cats = train
+    return items[len(items) - max(1, len(items) // 10):], cats, "the last tenth of train"
 
 
 def validation_figures(data: ProgramData, decoded: Decoded,

@@ -87,7 +87,7 @@ def single_loss(model: StepModel, data: ProgramData, rows: Sequence[int]) -> Ten
     assert data.consistent is not None
     batch = EpisodeBatch(data, rows)
     tokens = pad_tokens(batch.tokens)
-    feats = model.perception(batch.crops, batch.mask, batch.sizes)
+    feats = model.features(batch.crops, batch.mask, batch.sizes)
     out = model.step(model.code(tokens), tokens, feats, batch.centres,
                      torch.zeros(batch.mask.shape), batch.mask)
     progs, seg = [], []
@@ -188,7 +188,7 @@ def teacher_cuts(model: StepModel, data: ProgramData, rows: Sequence[int],
     program's first step (the ``beam`` best), and one step always."""
     assert data.consistent is not None
     batch = EpisodeBatch(data, rows)
-    feats = model.perception(batch.crops, batch.mask, batch.sizes)
+    feats = model.features(batch.crops, batch.mask, batch.sizes)
     prefixes, prow = [], []
     for i, tok in enumerate(batch.tokens):
         for c in range(1, len(tok)):
@@ -257,7 +257,7 @@ def joint_loss(model: StepModel, splitter: Splitter, data: ProgramData,
     if not kept:
         return sum((p.sum() * 0.0 for p in splitter.parameters()), torch.zeros(()))
     batch = EpisodeBatch(data, [r for r, _, _ in kept])
-    feats = model.perception(batch.crops, batch.mask, batch.sizes)
+    feats = model.features(batch.crops, batch.mask, batch.sizes)
     scores = option_scores(model, data, batch, feats, [[c for c, _ in k] for _, k, _ in kept])
     ll = torch.stack([torch.logsumexp(sc, 0) for sc in scores])
     ok = torch.isfinite(ll)
