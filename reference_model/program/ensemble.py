@@ -69,12 +69,9 @@ class EnsembleSplitter(Splitter):
         nn.Module.__init__(self)
         self.members = nn.ModuleList(members)
         self.register_buffer("calibration", torch.tensor([1.0, 0.0]))
-        self.register_buffer("threshold", torch.tensor(-1.0))
-        self.settle()
-
-    def settle(self) -> None:
-        """Take the members' mean threshold (after they are loaded)."""
-        self.threshold = torch.stack([m.threshold for m in self._splitters()]).mean()
+        # a buffer, so that the checkpoint carries it (loading restores the trained value)
+        self.register_buffer("threshold",
+                             torch.stack([m.threshold for m in self._splitters()]).mean())
 
     def forward(self, tokens: Tensor) -> Tensor:
         probs = torch.stack([torch.sigmoid(m(tokens)) for m in self._splitters()]).mean(0)

@@ -131,18 +131,14 @@ class ProgramModelBase(ProgramPredictionModel):
         val_items, val_cats, selected_on = selection_items(data)
         val = with_training_signal(program_data(val_items, vocab, network.rule), val_items,
                                    val_cats, network.rule)
-        decoded = decode(network.step, network.splitter, val, network.rule)
-        score = decoded_iou_m(val, decoded)
-        gold = [[tuple(int(x) for x in row) for row in it["targets"]["grounded"].tolist()]
-                for it in val_items]
+        score, figures = validation_scores(network, val, gold_steps(val_items))
         cards = [json.loads((b.parent / CARD).read_text("utf-8")) for b in bests]
         lines = [{**json.loads(line), "member": k}
                  for k, b in enumerate(bests)
                  for line in (b.parent / LOG).read_text("utf-8").splitlines()]
         lines.append({"stage": "ensemble", "members": members, "val_iou_m": round(score, 5),
                       "best": True, "seconds": round(time.perf_counter() - t0, 1),
-                      **{k: round(v, 5) for k, v in
-                         validation_figures(val, decoded, gold).items()}})
+                      **{k: round(v, 5) for k, v in figures.items()}})
         atomic_write_text(out / LOG, "".join(json.dumps(x) + "\n" for x in lines))
         best = out / BEST
         save_checkpoint(best, cls.model_id, cfg.to_dict(), vocab.to_list(),
@@ -209,16 +205,14 @@ class ProgramModelBase(ProgramPredictionModel):
                   int(config.batch_size), uses_splitter=True,
                   decay=bool(config.joint_decay)),
         ]
-        gold = [[tuple(int(x) for x in row) for row in it["targets"]["grounded"].tolist()]
-                for it in val_items]  # for the log's figures only
+        gold = gold_steps(val_items)  # for the log's figures only
 
         calibration_rows = joint_rows[:CALIBRATION_EPISODES].tolist()
 
         def validate(stage: Stage) -> tuple[float, dict[str, float]]:
             if stage.uses_splitter:
                 fit_calibration(model.step, model.splitter, train, calibration_rows)
-            decoded = decode(model.step, model.splitter, val, model.rule)
-            return decoded_iou_m(val, decoded), validation_figures(val, decoded, gold)
+            return validation_scores(model, val, gold)
 
         return TrainingPlan(
             network=model, stages=stages, validate=validate, vocab=vocab.to_list(),
@@ -268,6 +262,21 @@ def selection_items(
         train = items, ds.collection.index.set_index("id").to_dict("index")
     items, cats = train
     return items[len(items) - max(1, len(items) // 10):], cats, "the last tenth of train"
+
+
+def gold_steps(items: Sequence[dict[str, Any]]) -> list[list[tuple[int, ...]]]:
+    """Each item's gold steps (action, subject, base), read from its targets: for the log's
+    validation figures only."""
+    return [[tuple(int(x) for x in row) for row in it["targets"]["grounded"].tolist()]
+            for it in items]
+
+
+def validation_scores(model: ProgramModel, val: ProgramData,
+                      gold: list[list[tuple[int, ...]]]) -> tuple[float, dict[str, float]]:
+    """The model's in-loop val IoU-M as it predicts (splitter included) and the log's
+    figures (:func:`validation_figures`)."""
+    decoded = decode(model.step, model.splitter, val, model.rule)
+    return decoded_iou_m(val, decoded), validation_figures(val, decoded, gold)
 
 
 def validation_figures(data: ProgramData, decoded: Decoded,
