@@ -1,7 +1,11 @@
 """Generation speed before and after the lean reset and the writer thread, side by side.
 
-    python scripts/bench_generate.py [--split paper-v2] [--part test] [--episodes 40]
-                                     [--repeat 5] [--large 4] [--forked]
+    python scripts/bench_generate.py [--split paper-v2] [--part test] [--episodes 100]
+                                     [--repeat 5] [--large 100] [--forked]
+
+(about 5 minutes with the defaults: each end-to-end run writes one whole shard of 100
+episodes, as the ``generate`` verb does, so the shard's fork and commit count as often as
+they do there.)
 
 "before" is the generator as it was: ``World(lean_reset=False)`` (every instance reloads
 the table, the Panda and their visuals from the shipped files) and
@@ -9,7 +13,8 @@ the table, the Panda and their visuals from the shipped files) and
 "after" is what ``generate`` runs now: ``World()`` (teleport instances begin with the
 resting arm's collision hulls reduced to their bounding points, ``World.begin(...,
 robot_collision=False)``) and ``ShardWriter(background="process")`` (hash, compress and
-write in a child process forked for the shard: what ``generate`` does with one worker on a
+write in a child process forked for the shard, the images handed over through shared
+memory, :mod:`~nsrmp_bench.storage.handover`: what ``generate`` does with one worker on a
 machine of two cores or more, ``generate.shard_writer_mode``). Both make the same bytes
 (``tests/world/test_determinism.py``, ``tests/world/test_robot_clearance.py``,
 ``tests/storage/test_writer_background.py``, and ``generate`` + ``verify`` of every
@@ -140,9 +145,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--split", default="paper-v2")
     parser.add_argument("--part", default="test")
-    parser.add_argument("--episodes", type=int, default=40)
+    parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--repeat", type=int, default=5)
-    parser.add_argument("--large", type=int, default=4,
+    parser.add_argument("--large", type=int, default=100,
                         help="episodes per 1024x768 run (0: skip)")
     parser.add_argument("--forked", action="store_true",
                         help="add the variant that makes every instance in a forked child")

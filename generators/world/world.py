@@ -555,10 +555,11 @@ class World:
         return [(i, j, d) for (i, j), d in sorted(deepest.items())]
 
     # -- rendering ---------------------------------------------------------------------
-    def _raw(self, cam: Camera) -> tuple[NDArray[np.uint8], NDArray[np.float32],
-                                         NDArray[np.int32]]:
+    def _raw(self, cam: Camera, *, linear: bool = True) -> tuple[
+            NDArray[np.uint8], NDArray[Any], NDArray[np.int32]]:
         """One TinyRenderer pass: RGB with the background colour where no body is seen,
-        metric depth, and PyBullet body ids (-1 where no body)."""
+        metric depth (``linear``; else the z-buffer as TinyRenderer gives it), and
+        PyBullet body ids (-1 where no body)."""
         pb, c, cv2 = self.pb, self.client, self._cv2
         view, projection = _gl_matrices(cam)
         _, _, rgba, zbuf, seg = pb.getCameraImage(
@@ -580,8 +581,8 @@ class World:
         seg_ids = np.asarray(seg, dtype=np.int32).reshape(cam.height, cam.width)
         rgb = cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)  # 30x faster than rgba[..., :3].copy()
         cv2.copyTo(self._fill(cam.height, cam.width), (seg_ids < 0).view(np.uint8), rgb)
-        depth = cam.linearize_depth(np.asarray(zbuf).reshape(cam.height, cam.width))
-        return rgb, depth, seg_ids
+        zbuf = np.asarray(zbuf).reshape(cam.height, cam.width)
+        return rgb, cam.linearize_depth(zbuf) if linear else zbuf, seg_ids
 
     def render(self, camera: Camera | None = None, *, composite: bool = False) -> RenderedImages:
         """Render RGB, metric depth and object-index segmentation with TinyRenderer.
@@ -605,14 +606,17 @@ class World:
                    "objects are parked and the robot is at rest")
             raise InvalidArgument(msg)
         with self._hidden(self._scenery):
-            rgb_o, depth_o, seg_o = self._raw(cam)
+            rgb_o, zbuf_o, seg_o = self._raw(cam, linear=False)
         cv2 = self._cv2
-        mask = (seg_o >= 0).view(np.uint8)
+        seen = seg_o >= 0
         rgb = background.rgb.copy()
-        cv2.copyTo(rgb_o, mask, rgb)
+        cv2.copyTo(rgb_o, seen.view(np.uint8), rgb)
         depth = background.depth.copy()
-        cv2.copyTo(depth_o, mask, depth)
-        segmentation = np.take(self._seg_lut, seg_o + 1)
+        # only the objects' pixels are kept: only they are made metric (pixel by pixel,
+        # so the same values)
+        depth[seen] = cam.linearize_depth(zbuf_o[seen])
+        segmentation = np.full(seg_o.shape, -1, dtype=self._seg_lut.dtype)  # lut[0] = -1
+        segmentation[seen] = self._seg_lut[seg_o[seen] + 1]
         return RenderedImages(rgb, depth, segmentation)
 
     def prepare_background(self, camera: Camera | None = None) -> None:

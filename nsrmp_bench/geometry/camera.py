@@ -130,10 +130,15 @@ class Camera:
         return m
 
     def linearize_depth(self, zbuffer: NDArray[Any]) -> NDArray[np.float32]:
-        """Turn an OpenGL z-buffer in [0, 1] into optical-axis depth in metres."""
-        d = np.asarray(zbuffer, dtype=np.float64)
+        """Turn an OpenGL z-buffer in [0, 1] into optical-axis depth in metres:
+        ``f * n / (f - (f - n) * d)`` in float64, rounded to float32, computed in place
+        (negating a product and adding it are exact, so the bits are the formula's)."""
+        d = np.array(zbuffer, dtype=np.float64)  # a copy: worked on in place
         n, f = self.near, self.far
-        return (f * n / (f - (f - n) * d)).astype(np.float32)
+        d *= -(f - n)
+        d += f
+        np.divide(f * n, d, out=d)
+        return d.astype(np.float32)
 
     # -- projection ------------------------------------------------------------------
     @cached_property

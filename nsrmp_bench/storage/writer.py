@@ -16,11 +16,12 @@ A thread still shares the GIL with its caller, and PyBullet holds the GIL throug
 its calls: a generator that spends most of its time in PyBullet leaves the writer thread
 little room (measured: one worker wrote 27 episodes/s where it generated 57 alone).
 ``background="process"`` writes in a child process forked for the shard instead (the
-synchronous writer's code, so the same bytes): the caller only hands each episode over a
-pipe. The child ends with the shard: it commits when told, and aborts (removes the
-``.tmp``) when told to or when the caller's end of the pipe closes (the caller died). A
-daemonic process (a Dask worker) cannot have children; there it is a thread
-(:func:`writer_mode`).
+synchronous writer's code, so the same bytes): the caller only hands each episode over,
+its image arrays through shared memory (:mod:`~nsrmp_bench.storage.handover`) and the
+rest over a pipe. The child ends with the shard: it commits when told, and aborts
+(removes the ``.tmp``) when told to or when the caller's end of the pipe closes (the
+caller died). A daemonic process (a Dask worker) cannot have children; there it is a
+thread (:func:`writer_mode`).
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ from nsrmp_bench.dsl.program import load_signatures
 from nsrmp_bench.episode import SCHEMA_VERSION, Episode
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage.arrays import episode_arrays
+from nsrmp_bench.storage.handover import Handover
 from nsrmp_bench.storage.hashing import episode_hash
 from nsrmp_bench.storage.layout import (
     FORMAT,
@@ -412,9 +414,11 @@ def writer_mode() -> Literal["process", "thread"]:
 class _Child:
     """The parent's end of a shard written in a forked child (``background="process"``).
 
-    Episodes go over a one-way pipe, one at a time (sending the next one waits until the
-    child has begun to read it, so at most one episode waits); the child answers when it
-    has opened the file and once at the end: the record, or the error that stopped it."""
+    Each episode's large arrays go into one of two shared slots (a :class:`Handover`;
+    handing the next one over waits while both hold episodes the child has not written)
+    and the rest over a one-way pipe; an episode too large for a slot goes whole over the
+    pipe. The child answers when it has opened the file and once at the end: the record,
+    or the error that stopped it."""
 
     def __init__(self, tmp_path: Path, args: tuple[str, int, int, str, str]) -> None:
         """``args``: the child's ShardWriter's (out_dir, start, stop, split, version);
@@ -424,9 +428,10 @@ class _Child:
         self._answer_r, answer_w = ctx.Pipe(duplex=False)
         self.tmp_path = tmp_path
         self.file = tmp_path.name.removesuffix(TMP_SUFFIX)
+        self._handover = Handover(ctx)
         self._proc = ctx.Process(
             target=_child_main, name=f"writer {self.file}", daemon=True,
-            args=(self._episodes_r, self._episodes_w, answer_w, args))
+            args=(self._episodes_r, self._episodes_w, answer_w, args, self._handover))
         self._proc.start()
         answer_w.close()  # the child's; the parent keeps the reading end
         self._episodes_r.close()
@@ -452,11 +457,22 @@ class _Child:
     def add(self, episode: Episode) -> None:
         self.raise_error()
         try:
-            self._episodes_w.send(("add", episode))
+            packed = self._handover.pack(episode, self._alive)
+            self._episodes_w.send(("add", episode) if packed is None else ("shared", packed))
         except (BrokenPipeError, ConnectionResetError):
             self._answer()  # the child stopped early: its error
             self._finish()
             self.raise_error()
+
+    def _alive(self) -> None:
+        """Raise the child's error if it has stopped (called while waiting for a slot)."""
+        if self._proc.is_alive() and not self._answer_r.poll():
+            return
+        self._answer()
+        self._finish()
+        self.raise_error()
+        msg = f"writing shard {self.file} failed: the writer process stopped early"
+        raise RuntimeError(msg)
 
     def commit(self) -> ShardRecord:
         with contextlib.suppress(BrokenPipeError, ConnectionResetError):
@@ -479,6 +495,7 @@ class _Child:
         self._episodes_w.close()
         self._proc.join()
         self._answer_r.close()
+        self._handover.close()
         self.closed = True
 
     def raise_error(self) -> None:
@@ -495,7 +512,7 @@ class _Child:
 
 
 def _child_main(episodes: Connection, parents_end: Connection, answer: Connection,
-                args: tuple[str, int, int, str, str]) -> None:
+                args: tuple[str, int, int, str, str], handover: Handover) -> None:
     """The forked writer: a synchronous :class:`ShardWriter` fed from the pipe."""
     parents_end.close()  # so that the parent's death reads as the end of the pipe
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C: the parent aborts the shard
@@ -513,6 +530,9 @@ def _child_main(episodes: Connection, parents_end: Connection, answer: Connectio
                 return
             if kind == "add":
                 writer.add(episode)
+            elif kind == "shared":  # its arrays are views of a slot, freed once written
+                writer.add(handover.unpack(episode))
+                handover.release()
             elif kind == "commit":
                 answer.send(("record", writer.commit()))
                 return

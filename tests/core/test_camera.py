@@ -61,3 +61,22 @@ def test_gl_matrices_equal_pybullets() -> None:
     assert np.allclose(proj, c.projection_matrix_gl, atol=1e-6)
     shifted = np.array(c.projection_matrix_gl_pixel_centred) - np.array(c.projection_matrix_gl)
     assert np.count_nonzero(np.abs(shifted) > 1e-9) == 2
+
+
+def test_linearize_depth_gives_the_formulas_bits_and_leaves_its_input() -> None:
+    """In place, it is still ``f * n / (f - (f - n) * d)`` in float64 rounded to float32,
+    bit for bit (stored depth images depend on it), over the whole z-buffer range."""
+    rng = np.random.default_rng(7)
+    zbuf = np.concatenate([rng.random(100_000, dtype=np.float32),
+                           np.float32([0.0, 1.0, 0.5, 0.999999])]).reshape(-1, 4)
+    before = zbuf.copy()
+    cam = OFFICIAL_CAMERA
+    n, f = cam.near, cam.far
+    expected = (f * n / (f - (f - n) * zbuf.astype(np.float64))).astype(np.float32)
+    got = cam.linearize_depth(zbuf)
+    assert got.dtype == np.float32 and got.shape == zbuf.shape
+    assert got.tobytes() == expected.tobytes()
+    assert zbuf.tobytes() == before.tobytes()
+    as_float64 = zbuf.astype(np.float64)  # a float64 z-buffer is not worked on either
+    cam.linearize_depth(as_float64)
+    assert as_float64.tobytes() == zbuf.astype(np.float64).tobytes()

@@ -1,0 +1,111 @@
+"""Shared-memory handover to a forked child: what the child unpacks is what was packed,
+its large arrays are views of the slot (not copies), slots are reused only once freed,
+what does not fit goes by the pipe, and a parent waiting for a dead child does not hang."""
+
+from __future__ import annotations
+
+import hashlib
+import multiprocessing as mp
+import time
+from multiprocessing.connection import Connection
+from typing import Any
+
+import numpy as np
+import pytest
+
+from nsrmp_bench.storage.handover import Handover
+
+CTX = mp.get_context("fork")
+
+
+def _objects(k: int) -> list[dict[str, Any]]:
+    rng = np.random.default_rng(k)
+    return [{"k": k, "image": rng.integers(0, 255, (240, 320, 3), dtype=np.uint8),
+             "depth": rng.random((2, 240, 320), dtype=np.float32),
+             "small": np.arange(10, dtype=np.float64), "text": f"episode {k}"}]
+
+
+def _digest(obj: dict[str, Any]) -> str:
+    h = hashlib.sha256(obj["text"].encode())
+    for key in ("image", "depth", "small"):
+        h.update(np.ascontiguousarray(obj[key]).tobytes())
+    return h.hexdigest()
+
+
+def _memory(arr: np.ndarray[Any, Any]) -> str:
+    """What an unpickled array's memory belongs to (``mmap``: the shared mapping)."""
+    base = arr.base
+    while isinstance(base, np.ndarray):
+        base = base.base
+    return type(base.obj).__name__ if isinstance(base, memoryview) else "own"
+
+
+def _child(handover: Handover, inbox: Connection, outbox: Connection) -> None:
+    while True:
+        packed = inbox.recv()
+        if packed is None:
+            return
+        obj = handover.unpack(packed)
+        outbox.send((_digest(obj), _memory(obj["image"]), _memory(obj["small"])))
+        del obj
+        handover.release()
+
+
+def test_the_child_unpacks_what_was_packed_as_views_of_the_slots() -> None:
+    handover = Handover(CTX, slots=2, slot_bytes=4 * 1024 * 1024)
+    inbox_r, inbox_w = CTX.Pipe(duplex=False)
+    outbox_r, outbox_w = CTX.Pipe(duplex=False)
+    child = CTX.Process(target=_child, args=(handover, inbox_r, outbox_w))
+    child.start()
+    try:
+        sent = [obj for k in range(7) for obj in _objects(k)]  # more objects than slots
+        for i, obj in enumerate(sent):
+            packed = handover.pack(obj, lambda: None)
+            assert packed is not None
+            slot, meta, spans = packed
+            assert slot == i % 2  # in turn
+            assert len(spans) == 2  # image and depth out of band; the small array in band
+            assert len(meta) < 10_000
+            inbox_w.send(packed)
+        got = [outbox_r.recv() for _ in sent]
+        inbox_w.send(None)
+    finally:
+        child.join(10)
+    assert [g[0] for g in got] == [_digest(o) for o in sent]
+    # the large arrays are views of the shared mapping; the small one came in the pickle
+    assert {image for _, image, _ in got} == {"mmap"}
+    assert "mmap" not in {small for _, _, small in got}
+    handover.close()
+
+
+def test_an_object_too_large_for_a_slot_is_not_packed() -> None:
+    handover = Handover(CTX, slots=2, slot_bytes=64 * 1024)
+    assert handover.pack(_objects(0)[0], lambda: None) is None
+    handover.close()
+
+
+def _taker(handover: Handover, inbox: Connection) -> None:
+    handover.unpack(inbox.recv())  # and exits without releasing the slot
+
+
+def test_a_parent_waiting_for_a_slot_of_a_dead_child_is_told() -> None:
+    handover = Handover(CTX, slots=1, slot_bytes=4 * 1024 * 1024)
+    inbox_r, inbox_w = CTX.Pipe(duplex=False)
+    child = CTX.Process(target=_taker, args=(handover, inbox_r))
+    child.start()
+    first = handover.pack(_objects(0)[0], lambda: None)
+    inbox_w.send(first)
+    child.join(10)
+    checks = 0
+
+    def alive() -> None:
+        nonlocal checks
+        checks += 1
+        if not child.is_alive():
+            raise RuntimeError("the child is gone")
+
+    start = time.monotonic()
+    with pytest.raises(RuntimeError, match="the child is gone"):
+        handover.pack(_objects(1)[0], alive)  # the only slot is never freed
+    assert checks >= 1 and time.monotonic() - start < 5.0
+    handover.close()
