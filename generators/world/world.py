@@ -555,11 +555,16 @@ class World:
         return [(i, j, d) for (i, j), d in sorted(deepest.items())]
 
     # -- rendering ---------------------------------------------------------------------
-    def _raw(self, cam: Camera, *, linear: bool = True) -> tuple[
-            NDArray[np.uint8], NDArray[Any], NDArray[np.int32]]:
+    def _raw(self, cam: Camera) -> tuple[NDArray[np.uint8], NDArray[np.float32],
+                                         NDArray[np.int32]]:
         """One TinyRenderer pass: RGB with the background colour where no body is seen,
-        metric depth (``linear``; else the z-buffer as TinyRenderer gives it), and
-        PyBullet body ids (-1 where no body)."""
+        metric depth, and PyBullet body ids (-1 where no body)."""
+        rgb, zbuf, seg_ids = self._raw_zbuffer(cam)
+        return rgb, cam.linearize_depth(zbuf), seg_ids
+
+    def _raw_zbuffer(self, cam: Camera) -> tuple[NDArray[np.uint8], NDArray[Any],
+                                                 NDArray[np.int32]]:
+        """:meth:`_raw` with the z-buffer as TinyRenderer gives it, in [0, 1]."""
         pb, c, cv2 = self.pb, self.client, self._cv2
         view, projection = _gl_matrices(cam)
         _, _, rgba, zbuf, seg = pb.getCameraImage(
@@ -581,8 +586,7 @@ class World:
         seg_ids = np.asarray(seg, dtype=np.int32).reshape(cam.height, cam.width)
         rgb = cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)  # 30x faster than rgba[..., :3].copy()
         cv2.copyTo(self._fill(cam.height, cam.width), (seg_ids < 0).view(np.uint8), rgb)
-        zbuf = np.asarray(zbuf).reshape(cam.height, cam.width)
-        return rgb, cam.linearize_depth(zbuf) if linear else zbuf, seg_ids
+        return rgb, np.asarray(zbuf).reshape(cam.height, cam.width), seg_ids
 
     def render(self, camera: Camera | None = None, *, composite: bool = False) -> RenderedImages:
         """Render RGB, metric depth and object-index segmentation with TinyRenderer.
@@ -606,7 +610,7 @@ class World:
                    "objects are parked and the robot is at rest")
             raise InvalidArgument(msg)
         with self._hidden(self._scenery):
-            rgb_o, zbuf_o, seg_o = self._raw(cam, linear=False)
+            rgb_o, zbuf_o, seg_o = self._raw_zbuffer(cam)
         cv2 = self._cv2
         seen = seg_o >= 0
         rgb = background.rgb.copy()

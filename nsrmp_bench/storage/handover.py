@@ -21,11 +21,13 @@ import mmap
 import pickle
 from collections.abc import Callable
 from multiprocessing.context import BaseContext
-from typing import Any
+from typing import Any, TypeAlias
+
+from nsrmp_bench.errors import InvalidArgument
 
 __all__ = ["Handover", "Packed"]
 
-Packed = tuple[int, bytes, list[tuple[int, int]]]
+Packed: TypeAlias = tuple[int, bytes, list[tuple[int, int]]]
 """(slot, the pickle without its large buffers, each buffer's (offset, size) in the slot)."""
 
 _OUT_OF_BAND = 64 * 1024  # smaller buffers stay in the pickle
@@ -41,6 +43,14 @@ class Handover:
 
     def __init__(self, ctx: BaseContext, *, slots: int = 2,
                  slot_bytes: int = 32 * 1024 * 1024) -> None:
+        if ctx.get_start_method() != "fork":
+            msg = (f"Handover needs a fork context (the child inherits the mapping), got "
+                   f"{ctx.get_start_method()!r}; use multiprocessing.get_context('fork')")
+            raise InvalidArgument(msg)
+        if slots < 1 or slot_bytes < _ALIGN or slot_bytes % _ALIGN:
+            msg = (f"Handover needs at least one slot of a positive multiple of {_ALIGN} "
+                   f"bytes, got {slots} slots of {slot_bytes} bytes")
+            raise InvalidArgument(msg)
         self.slots, self.slot_bytes = slots, slot_bytes
         # anonymous and MAP_SHARED: the forked child sees the parent's writes; pages are
         # only backed once touched
@@ -51,7 +61,8 @@ class Handover:
     def pack(self, obj: Any, alive: Callable[[], None]) -> Packed | None:
         """Copy ``obj``'s large buffers into the next slot (waiting until the child has
         freed it; ``alive()`` is called while waiting and should raise if the child is
-        gone); None when they do not fit a slot."""
+        gone); None when it has none (nothing to gain) or they do not fit a slot: send
+        ``obj`` itself then."""
         buffers: list[pickle.PickleBuffer] = []
 
         def out_of_band(buf: pickle.PickleBuffer) -> bool:
@@ -67,19 +78,24 @@ class Handover:
             size = buf.raw().nbytes
             spans.append((offset, size))
             offset += -(-size // _ALIGN) * _ALIGN
-        if offset > self.slot_bytes:
+        if not buffers or offset > self.slot_bytes:
             return None
         while not self._free.acquire(timeout=0.2):
             alive()
         slot = self._next % self.slots
+        try:
+            base = slot * self.slot_bytes
+            for buf, (off, size) in zip(buffers, spans, strict=True):
+                self._map[base + off:base + off + size] = buf.raw()
+        except BaseException:  # nothing sent: the slot stays free and next in turn
+            self._free.release()
+            raise
         self._next += 1
-        base = slot * self.slot_bytes
-        for buf, (off, size) in zip(buffers, spans, strict=True):
-            self._map[base + off:base + off + size] = buf.raw()
         return slot, meta, spans
 
     def unpack(self, packed: Packed) -> Any:
-        """The object :meth:`pack` packed; its large arrays are views of the slot."""
+        """The object :meth:`pack` packed; its large arrays are views of the slot (read-only
+        when the packed ones were), valid until :meth:`release`."""
         slot, meta, spans = packed
         base = slot * self.slot_bytes
         view = memoryview(self._map)

@@ -530,7 +530,8 @@ def _child_main(episodes: Connection, parents_end: Connection, answer: Connectio
                 return
             if kind == "add":
                 writer.add(episode)
-            elif kind == "shared":  # its arrays are views of a slot, freed once written
+            elif kind == "shared":  # its arrays are views of a slot, freed once written:
+                # the writer is synchronous and keeps no array of what it wrote
                 writer.add(handover.unpack(episode))
                 handover.release()
             elif kind == "commit":

@@ -13,8 +13,11 @@ from typing import Any
 import numpy as np
 import pytest
 
+from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage.handover import Handover
 
+if "fork" not in mp.get_all_start_methods():
+    pytest.skip("the handover is for forked writer processes", allow_module_level=True)
 CTX = mp.get_context("fork")
 
 
@@ -51,14 +54,22 @@ def _child(handover: Handover, inbox: Connection, outbox: Connection) -> None:
         handover.release()
 
 
+def _recv(conn: Connection) -> Any:
+    assert conn.poll(20), "the child did not answer"
+    return conn.recv()
+
+
 def test_the_child_unpacks_what_was_packed_as_views_of_the_slots() -> None:
     handover = Handover(CTX, slots=2, slot_bytes=4 * 1024 * 1024)
     inbox_r, inbox_w = CTX.Pipe(duplex=False)
     outbox_r, outbox_w = CTX.Pipe(duplex=False)
-    child = CTX.Process(target=_child, args=(handover, inbox_r, outbox_w))
+    child = CTX.Process(target=_child, args=(handover, inbox_r, outbox_w), daemon=True)
     child.start()
+    inbox_r.close()
+    outbox_w.close()
     try:
         sent = [obj for k in range(7) for obj in _objects(k)]  # more objects than slots
+        got: list[tuple[str, str, str]] = []
         for i, obj in enumerate(sent):
             packed = handover.pack(obj, lambda: None)
             assert packed is not None
@@ -67,21 +78,47 @@ def test_the_child_unpacks_what_was_packed_as_views_of_the_slots() -> None:
             assert len(spans) == 2  # image and depth out of band; the small array in band
             assert len(meta) < 10_000
             inbox_w.send(packed)
-        got = [outbox_r.recv() for _ in sent]
+            if i % 3 == 2:  # now and then wait for the child, so both orders happen
+                got.extend(_recv(outbox_r) for _ in range(i + 1 - len(got)))
+        got.extend(_recv(outbox_r) for _ in range(len(sent) - len(got)))
         inbox_w.send(None)
-    finally:
         child.join(10)
+        assert child.exitcode == 0
+    finally:
+        if child.is_alive():
+            child.terminate()
+        handover.close()
     assert [g[0] for g in got] == [_digest(o) for o in sent]
     # the large arrays are views of the shared mapping; the small one came in the pickle
     assert {image for _, image, _ in got} == {"mmap"}
     assert "mmap" not in {small for _, _, small in got}
-    handover.close()
 
 
-def test_an_object_too_large_for_a_slot_is_not_packed() -> None:
-    handover = Handover(CTX, slots=2, slot_bytes=64 * 1024)
-    assert handover.pack(_objects(0)[0], lambda: None) is None
-    handover.close()
+def test_what_is_too_large_for_a_slot_or_has_no_large_buffer_is_not_packed() -> None:
+    handover = Handover(CTX, slots=1, slot_bytes=64 * 1024)
+    try:
+        assert handover.pack(_objects(0)[0], lambda: None) is None
+        assert handover.pack({"small": np.zeros(10)}, lambda: None) is None
+        # neither took the only slot: an object that fits still gets it, at once
+        fits = {"a": np.zeros(64 * 1024, dtype=np.uint8)}  # out of band, fills the slot
+        packed = handover.pack(fits, lambda: pytest.fail("waited for a free slot"))
+        assert packed is not None and packed[0] == 0
+    finally:
+        handover.close()
+
+
+@pytest.mark.parametrize(("kwargs", "match"), [
+    ({"slots": 0}, "at least one slot of a positive multiple of 64 bytes, got 0 slots"),
+    ({"slot_bytes": 1000}, "got 2 slots of 1000 bytes"),
+])
+def test_bad_slots_are_refused(kwargs: dict[str, int], match: str) -> None:
+    with pytest.raises(InvalidArgument, match=match):
+        Handover(CTX, **kwargs)
+
+
+def test_a_context_that_does_not_fork_is_refused() -> None:
+    with pytest.raises(InvalidArgument, match=r"needs a fork context .* got 'spawn'"):
+        Handover(mp.get_context("spawn"))
 
 
 def _taker(handover: Handover, inbox: Connection) -> None:
@@ -91,8 +128,9 @@ def _taker(handover: Handover, inbox: Connection) -> None:
 def test_a_parent_waiting_for_a_slot_of_a_dead_child_is_told() -> None:
     handover = Handover(CTX, slots=1, slot_bytes=4 * 1024 * 1024)
     inbox_r, inbox_w = CTX.Pipe(duplex=False)
-    child = CTX.Process(target=_taker, args=(handover, inbox_r))
+    child = CTX.Process(target=_taker, args=(handover, inbox_r), daemon=True)
     child.start()
+    inbox_r.close()
     first = handover.pack(_objects(0)[0], lambda: None)
     inbox_w.send(first)
     child.join(10)

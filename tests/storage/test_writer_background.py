@@ -4,12 +4,14 @@ as HDF5's filters; an error or a dead caller leaves no file."""
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import multiprocessing as mp
 import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -18,6 +20,8 @@ pytest.importorskip("pybullet")
 
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage import open as open_part
+from nsrmp_bench.storage import writer as writer_module
+from nsrmp_bench.storage.handover import Handover, Packed
 from nsrmp_bench.storage.writer import Background, ShardWriter, writer_mode
 
 
@@ -82,6 +86,53 @@ def test_an_error_in_the_writer_process_surfaces_and_leaves_no_file(
     assert not list(tmp_path.glob("*.h5*"))
 
 
+def test_a_writer_process_that_fails_early_stops_its_caller_without_a_hang(
+    smoke_v2_test: Path, tmp_path: Path
+) -> None:
+    """The child fails on the second episode while the caller goes on handing episodes
+    over: with two shared slots, the caller soon waits for a slot the child will never
+    free, and must be told instead of waiting for ever."""
+    with open_part(smoke_v2_test) as part:
+        episodes = [part.episode(i) for i in range(8)]
+    clash = dataclasses.replace(episodes[1], symbolic=dataclasses.replace(
+        episodes[1].symbolic, id=episodes[0].symbolic.id))
+    w = ShardWriter(tmp_path, 0, 8, split="smoke-v2/test", background="process")
+    start = time.monotonic()
+    with pytest.raises((RuntimeError, InvalidArgument),
+                       match=r"writing shard shard-0000000-0000008\.h5 failed"):
+        for ep in [episodes[0], clash, *episodes[2:]]:
+            w.add(ep)
+        w.commit()
+    assert time.monotonic() - start < 30.0
+    w.abort()
+    assert not list(tmp_path.glob("*.h5*"))
+
+
+def test_episodes_too_large_for_the_shared_slots_go_by_the_pipe_with_the_same_bytes(
+    smoke_v2_test: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    with open_part(smoke_v2_test) as part:
+        episodes = [part.episode(i) for i in range(len(part))]
+    small = functools.partial(Handover, slot_bytes=64 * 1024)  # an episode is ~1.4 MB
+    monkeypatch.setattr(writer_module, "Handover", small)
+    packed: list[bool] = []
+    pack = Handover.pack
+
+    def spy(self: Handover, obj: object, alive: Callable[[], None]) -> Packed | None:
+        out = pack(self, obj, alive)
+        packed.append(out is not None)
+        return out
+
+    monkeypatch.setattr(Handover, "pack", spy)
+    with ShardWriter(tmp_path, 0, len(episodes), split="smoke-v2/test",
+                     background="process") as w:
+        for ep in episodes:
+            w.add(ep)
+        record = w.commit()
+    assert packed == [False] * len(episodes)  # every one went whole by the pipe
+    assert _sha(tmp_path / record.file) == _sha(next(smoke_v2_test.glob("shard-*.h5")))
+
+
 def test_a_short_shard_in_the_writer_process_is_refused_and_removed(
     smoke_v2_test: Path, tmp_path: Path
 ) -> None:
@@ -96,6 +147,7 @@ def test_a_short_shard_in_the_writer_process_is_refused_and_removed(
 
 _KILLED_CALLER = """
 import sys, time
+from collections.abc import Callable
 from pathlib import Path
 from nsrmp_bench.storage import open as open_part
 from nsrmp_bench.storage.writer import ShardWriter
