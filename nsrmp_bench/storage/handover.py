@@ -63,30 +63,30 @@ class Handover:
         freed it; ``alive()`` is called while waiting and should raise if the child is
         gone); None when it has none (nothing to gain) or they do not fit a slot: send
         ``obj`` itself then."""
-        buffers: list[pickle.PickleBuffer] = []
+        raws: list[memoryview] = []  # the large buffers, laid out in the slot by spans
+        spans: list[tuple[int, int]] = []
+        end = 0
 
         def out_of_band(buf: pickle.PickleBuffer) -> bool:
-            if buf.raw().nbytes < _OUT_OF_BAND:
+            nonlocal end
+            raw = buf.raw()
+            if raw.nbytes < _OUT_OF_BAND:
                 return True  # in band
-            buffers.append(buf)
+            raws.append(raw)
+            spans.append((end, raw.nbytes))
+            end += -(-raw.nbytes // _ALIGN) * _ALIGN
             return False
 
         meta = pickle.dumps(obj, protocol=5, buffer_callback=out_of_band)
-        spans: list[tuple[int, int]] = []
-        offset = 0
-        for buf in buffers:
-            size = buf.raw().nbytes
-            spans.append((offset, size))
-            offset += -(-size // _ALIGN) * _ALIGN
-        if not buffers or offset > self.slot_bytes:
+        if not raws or end > self.slot_bytes:
             return None
         while not self._free.acquire(timeout=0.2):
             alive()
         slot = self._next % self.slots
         try:
             base = slot * self.slot_bytes
-            for buf, (off, size) in zip(buffers, spans, strict=True):
-                self._map[base + off:base + off + size] = buf.raw()
+            for raw, (off, size) in zip(raws, spans, strict=True):
+                self._map[base + off:base + off + size] = raw
         except BaseException:  # nothing sent: the slot stays free and next in turn
             self._free.release()
             raise

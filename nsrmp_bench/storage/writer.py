@@ -460,19 +460,20 @@ class _Child:
             packed = self._handover.pack(episode, self._alive)
             self._episodes_w.send(("add", episode) if packed is None else ("shared", packed))
         except (BrokenPipeError, ConnectionResetError):
-            self._answer()  # the child stopped early: its error
-            self._finish()
-            self.raise_error()
+            self._stopped()
 
     def _alive(self) -> None:
         """Raise the child's error if it has stopped (called while waiting for a slot)."""
-        if self._proc.is_alive() and not self._answer_r.poll():
-            return
+        if not self._proc.is_alive() or self._answer_r.poll():
+            self._stopped()
+
+    def _stopped(self) -> None:
+        """The child stopped early: read its error, reap it and raise the error."""
         self._answer()
         self._finish()
         self.raise_error()
         msg = f"writing shard {self.file} failed: the writer process stopped early"
-        raise RuntimeError(msg)
+        raise RuntimeError(msg)  # _answer always records an error; kept as a guard
 
     def commit(self) -> ShardRecord:
         with contextlib.suppress(BrokenPipeError, ConnectionResetError):
