@@ -17,11 +17,18 @@ class NSRM2Config(ModelConfig):
 
     ABSENT: ClassVar[Mapping[str, Any]] = {
         "object_sizes": False, "augment": False, "relation_after_head": False,
-        "splitter_joins": 0, "joint_decay": False, "members": 1}
+        "splitter_joins": 0, "joint_decay": False, "members": 1,
+        "filter_link": "logsigmoid"}
+    LINKS: ClassVar[tuple[str, ...]] = ("logsigmoid", "linear", "leaky")
 
     concept_dim: int = 32
     object_sizes: bool = True  # perception reads each object's estimated size (metres)
     augment: bool = True  # training crops shifted and scaled a little (perception)
+    # how a word's concept score x of an object enters a reference's conjunction:
+    # "logsigmoid" log sigmoid(x), a log-probability (its gradient vanishes once x is
+    # large: a word true of an object it should not be cannot unlearn it); "linear" x
+    # itself (a log-linear product of experts); "leaky" log sigmoid(x) + x / 10
+    filter_link: str = "leaky"
     word_dim: int = 32
     hidden: int = 64
     ordered_roles: bool = True  # a reference reads head, relation, anchor in that order
@@ -47,3 +54,4 @@ class NSRM2Config(ModelConfig):
     def validate(self) -> None:
         super().validate()
         self.require(self.members >= 1, "members", "at least 1")
+        self.require(self.filter_link in self.LINKS, "filter_link", f"one of {self.LINKS}")

@@ -15,6 +15,7 @@ import torch
 
 from nsrmp_bench.cli.main import main
 from nsrmp_bench.dataset import EpisodeDataset
+from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.reference_model.nsrm2.config import NSRM2Config
 from nsrmp_bench.reference_model.nsrm2.model import ROLES, ConceptStepModel
 from nsrmp_bench.reference_model.program.data import program_data, read_items
@@ -40,6 +41,11 @@ def tiny_v2(tiny_paper: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+def test_config_refuses_an_unknown_filter_link() -> None:
+    with pytest.raises(InvalidArgument, match=r"filter_link = 'sigmoid'.*one of"):
+        NSRM2Config(filter_link="sigmoid")
+
+
 def test_tiny_run_learns(tiny_v2: Path, tiny_paper: Path, tmp_path: Path,
                          iou_m_of: Callable[[Path, Path, Path], float]) -> None:
     log = [json.loads(x) for x in (tiny_v2 / "log.jsonl").read_text().splitlines()]
@@ -54,8 +60,10 @@ def test_tiny_run_learns(tiny_v2: Path, tiny_paper: Path, tmp_path: Path,
     assert main(["predict", "nsrm-v2", "--data", str(train), "--out", str(pred),
                  "--checkpoint", str(tiny_v2 / "best.pt")]) == 0
     assert main(["baseline", "noop", "--data", str(train), "--out", str(noop)]) == 0
-    # far above doing nothing (the shipped run: 0.158 against 0.015 after 6 epochs)
-    assert iou_m_of(pred, train, tmp_path) > iou_m_of(noop, train, tmp_path) + 0.10
+    # far above doing nothing: 0.089 against 0.015 with the leaky filters (log-sigmoid
+    # filters reached 0.158 on this tiny run; the leak learns slower here, a second joint
+    # epoch gives 0.094, while on paper-v2 it is the better of the two: see the card)
+    assert iou_m_of(pred, train, tmp_path) > iou_m_of(noop, train, tmp_path) + 0.05
 
 
 @pytest.mark.parametrize("model", ["nsrm-v2", "nmn-v2"])
@@ -201,6 +209,32 @@ def test_a_relation_word_before_a_references_head_is_not_its_relation() -> None:
         _, b_lp, _ = model.step(code, tokens, feats, centres, torch.zeros((1, 3)), mask)
         bases[flag] = int(b_lp[0].argmax())
     assert bases == {True: 2, False: 0}
+
+
+@pytest.mark.parametrize(("link", "learns"), [("logsigmoid", False), ("linear", True),
+                                               ("leaky", True)])
+def test_a_word_true_of_the_wrong_object_can_unlearn_it(link: str, learns: bool) -> None:
+    """"cube" scores 12 on a cube and 10 on a dice (it was learnt before the two looked
+    different) and the subject is the cube. Through log sigmoid both scores sit at 0,
+    the subject is a coin toss, and the gradient that would lower "cube" on the dice is
+    e^-10 of the loss's: the word cannot unlearn the dice. Linear and leaky links keep
+    the difference and a gradient of the loss's size."""
+    model = ConceptStepModel(3, NSRM2Config(concept_dim=4, filter_link=link))
+    tokens = torch.tensor([[2]])
+    code = torch.zeros((1, 1, len(ROLES)))
+    code[0, 0, ROLES.index("subject")] = 1.0
+    mask = torch.ones((1, 2), dtype=torch.bool)
+    feats = torch.tensor([[[12.0, 0, 0, 0], [10.0, 0, 0, 0]]], requires_grad=True)
+    with torch.no_grad():
+        model.concept.weight[2, 0] = 1.0
+    s_lp, _, _ = model.step(code, tokens, feats, torch.zeros((1, 2, 3)),
+                            torch.zeros((1, 2)), mask)
+    loss = -s_lp[0, 0]
+    loss.backward()
+    assert feats.grad is not None
+    pull = float(feats.grad[0, 1, 0])  # descent lowers "cube" on the dice by this much
+    assert (float(s_lp[0, 0].exp()) > 0.52) == learns
+    assert (pull > 0.01) == learns
 
 
 def test_d8_positions_of_a_correct_program_pass_success_3d(
