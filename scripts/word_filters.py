@@ -20,7 +20,6 @@ them.
 from __future__ import annotations
 
 import argparse
-import json
 from collections import defaultdict
 from pathlib import Path
 from typing import Any
@@ -29,7 +28,8 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
-from nsrmp_bench.reference_model.nsrm2.model import ConceptStepModel, word_filter
+from nsrmp_bench.generators.templates import load_language
+from nsrmp_bench.reference_model.nsrm2.model import ConceptStepModel
 from nsrmp_bench.reference_model.program.data import program_data, read_items
 from nsrmp_bench.reference_model.program.ensemble import EnsembleStep
 from nsrmp_bench.reference_model.program.run import ProgramModelBase
@@ -37,15 +37,13 @@ from nsrmp_bench.reference_model.program.training import EpisodeBatch
 from nsrmp_bench.reference_model.registry import load_model
 from nsrmp_bench.vocabulary import COLOURS, SHAPES
 
-SYNONYMS = Path(__file__).resolve().parents[1] / "generators" / "templates" / "synonyms.json"
-
 
 def attribute_words() -> dict[tuple[str, str], list[str]]:
     """(attribute, value) -> the single-token words that name it in the templates."""
-    words = json.loads(SYNONYMS.read_text("utf-8"))["words"]
+    words = load_language().words
     out: dict[tuple[str, str], list[str]] = {("colour", c): [c] for c in COLOURS}
     for s in SHAPES:
-        out[("shape", s)] = [w for w in words[f"shape:{s}"]["values"] if " " not in w]
+        out[("shape", s)] = [w for w in words[f"shape:{s}"].values if " " not in w]
     return out
 
 
@@ -100,8 +98,9 @@ def main() -> int:
     concept_models = [m for m in members if isinstance(m, ConceptStepModel)]
     items, _ = read_items(args.data)
     data = program_data(items, model.vocab, model.rule)
-    words = {w: model.vocab.encode(w) for ws in attribute_words().values() for w in ws}
-    tokens = {w: t[0] for w, t in words.items() if len(t) == 1}
+    encoded = {w: model.vocab.encode(w) for ws in attribute_words().values() for w in ws}
+    tokens = {w: t[0] for w, t in encoded.items() if len(t) == 1}
+    word_ids = torch.tensor(list(tokens.values()))
     scores: dict[str, list[NDArray[Any]]] = defaultdict(list)
     feats, shapes, colours, episodes = [], [], [], []
     step.eval()
@@ -111,17 +110,18 @@ def main() -> int:
             batch = EpisodeBatch(data, rows)
             per_member = [m.features(batch.crops, batch.mask, batch.sizes)
                           for m in concept_models]
+            # every word against every object of the batch at once: (B, words, N)
+            tok = word_ids.expand(len(rows), -1)
+            filt = torch.stack([m.word_filter(tok, f) for m, f in
+                                zip(concept_models, per_member, strict=True)]).mean(0)
             for i, r in enumerate(rows):
                 n = int(batch.mask[i].sum())
                 feats.append(per_member[0][i, :n].numpy())
                 shapes.append(items[r]["targets"]["shapes"][:n].numpy())
                 colours.append(items[r]["targets"]["colours"][:n].numpy())
                 episodes.append(np.full(n, r))
-                for w, t in tokens.items():
-                    tok = torch.tensor([[t]])
-                    filt = [word_filter(m, tok, f[i : i + 1, :n])[0, 0]
-                            for m, f in zip(concept_models, per_member, strict=True)]
-                    scores[w].append(torch.stack(filt).mean(0).numpy())
+                for j, w in enumerate(tokens):
+                    scores[w].append(filt[i, j, :n].numpy())
     ep = np.concatenate(episodes)
     values = {"shape": np.concatenate(shapes), "colour": np.concatenate(colours)}
     names = {"shape": SHAPES, "colour": COLOURS}

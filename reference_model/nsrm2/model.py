@@ -13,7 +13,7 @@ and the base its head, its relation or its relation's anchor; and a probability 
 speaks of the action. A reference's
 head filter is the
 role-weighted conjunction of its head words' concepts (each word's concept score through
-a "leaky" log sigmoid, :func:`word_filter`); a relational reference scores each
+a "leaky" log sigmoid, :meth:`ConceptStepModel.word_filter`); a relational reference scores each
 object by the relation to an anchor chosen by the anchor words' conjunction. With
 ``ordered_roles`` (the shipped setting) a reference reads in the grammar's order, head
 words before its relation word and anchor words after it: a word's head weight is scaled
@@ -43,7 +43,7 @@ from nsrmp_bench.reference_model.program.modules import (
 )
 from nsrmp_bench.reference_model.tokens import PAD
 
-__all__ = ["ROLES", "ConceptStepModel", "word_filter"]
+__all__ = ["ROLES", "ConceptStepModel"]
 
 ROLES = ("none", "action", "subject", "subject-relation", "subject-anchor", "base",
          "base-relation", "base-anchor")
@@ -94,9 +94,28 @@ class ConceptStepModel(StepModel):
         probs = torch.cat([refs[..., :_ACTION], action, refs[..., _ACTION:]], -1)
         return probs * (pieces != PAD)[..., None]
 
+    def word_filter(self, tokens: Tensor, feats: Tensor,
+                    previous: Tensor | None = None) -> Tensor:
+        """(R, T, N): each word's term for each object in a reference's conjunction, from
+        its concept score x = concept . features + bias (+ its affinity for the object the
+        previous step moved, ``previous`` (R, N)), through ``filter_link``: log sigmoid(x)
+        (a log-probability), x, or "leaky" log sigmoid(x) + x / 10. Log sigmoid alone
+        saturates: a word that came to score an object high (``cube`` on dice, learnt
+        before the crops told the two apart) gets almost no gradient to lower it, so it
+        never unlearns it; the leak keeps a tenth of the gradient everywhere."""
+        logit: Tensor = torch.einsum("rtd,rnd->rtn", self.concept(tokens), feats)
+        logit = logit + self.concept_bias(tokens)
+        if previous is not None:
+            logit = logit + self.previous(tokens) * previous[:, None]
+        link = self.cfg.filter_link
+        if link == "linear":
+            return logit
+        out = F.logsigmoid(logit)
+        return out + 0.1 * logit if link == "leaky" else out
+
     def step(self, code: Tensor, tokens: Tensor, feats: Tensor, centres: Tensor,
              previous: Tensor, mask: Tensor) -> StepOutput:
-        log_filter = word_filter(self, tokens, feats, previous)
+        log_filter = self.word_filter(tokens, feats, previous)
         offsets = (centres[:, :, None] - centres[:, None]) / _OFFSET_SCALE  # (R, N, N, 3)
         eye = torch.eye(mask.shape[1], dtype=torch.bool, device=mask.device)
         others = mask[:, None, :] & ~eye[None]
@@ -128,26 +147,6 @@ class ConceptStepModel(StepModel):
         action = torch.log_softmax(
             torch.einsum("rt,rtk->rk", code[..., _ACTION], self.action(tokens)), -1)
         return out[0], out[1], action
-
-
-def word_filter(model: ConceptStepModel, tokens: Tensor, feats: Tensor,
-                previous: Tensor | None = None) -> Tensor:
-    """(R, T, N): each word's term for each object in a reference's conjunction, from its
-    concept score x = concept . features + bias (+ its affinity for the object the
-    previous step moved, ``previous`` (R, N)), through ``filter_link``: log sigmoid(x) (a
-    log-probability), x, or "leaky" log sigmoid(x) + x / 10. Log sigmoid alone saturates: a
-    word that came to score an object high (``cube`` on dice, learnt before the crops told
-    the two apart) gets almost no gradient to lower it, so it never unlearns it; the leak
-    keeps a tenth of the gradient everywhere."""
-    logit: Tensor = torch.einsum("rtd,rnd->rtn", model.concept(tokens), feats)
-    logit = logit + model.concept_bias(tokens)
-    if previous is not None:
-        logit = logit + model.previous(tokens) * previous[:, None]
-    link = model.cfg.filter_link
-    if link == "linear":
-        return logit
-    out = F.logsigmoid(logit)
-    return out + 0.1 * logit if link == "leaky" else out
 
 
 def _before(weights: Tensor) -> Tensor:
