@@ -18,7 +18,8 @@ class NMN2Config(ModelConfig):
 
     ABSENT: ClassVar[Mapping[str, Any]] = {"object_sizes": False, "augment": False,
                                            "query_words": "context", "splitter_joins": 0,
-                                           "joint_decay": False, "members": 1}
+                                           "joint_decay": False, "members": 1,
+                                           "splitter_gap": 3}
 
     concept_dim: int = 32
     object_sizes: bool = True  # perception reads each object's estimated size (metres)
@@ -33,6 +34,9 @@ class NMN2Config(ModelConfig):
     epochs_single: int = 14
     epochs_joint: int = 3
     splitter_joins: int = 2  # NSRM v2's splitter training (see its config)
+    # NSRM v2's splitter decoding (see its config); 3 here: the shipped nmn-v2 was trained
+    # and selected with it (not retrained at 5)
+    splitter_gap: int = 3
     batch_size: int = 32
     lr: float = 2e-3  # nmn-v1's; at 5e-3 and at NSRM v2's 1e-2 it stayed at chance
     # the joint stage's rate, times lr, decaying to 0; members read as one; torch threads
@@ -48,3 +52,4 @@ class NMN2Config(ModelConfig):
         self.require(self.query_words in ("context", "embedding"), "query_words",
                      "'context' or 'embedding'")
         self.require(self.members >= 1, "members", "at least 1")
+        self.require(self.splitter_gap >= 3, "splitter_gap", "at least 3 (the splitter's window)")

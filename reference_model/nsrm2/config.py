@@ -18,7 +18,7 @@ class NSRM2Config(ModelConfig):
     ABSENT: ClassVar[Mapping[str, Any]] = {
         "object_sizes": False, "augment": False, "relation_after_head": False,
         "splitter_joins": 0, "joint_decay": False, "members": 1,
-        "filter_link": "logsigmoid"}
+        "filter_link": "logsigmoid", "splitter_gap": 3}
     LINKS: ClassVar[tuple[str, ...]] = ("logsigmoid", "linear", "leaky")
 
     concept_dim: int = 32
@@ -37,6 +37,9 @@ class NSRM2Config(ModelConfig):
     # the joint stage's splitter also reads each instruction followed by up to this many
     # more (see program/training.py joint_loss): longer instructions than training has
     splitter_joins: int = 2
+    # the fewest tokens a step has, less one: boundary peaks closer than this are one
+    # boundary (Splitter.peaks); 3, the splitter's window, before it was a setting
+    splitter_gap: int = 5
     # stages (see reference_model/program/training.py)
     epochs_warmup: int = 2  # first stage: see StepModel.warmup_parameters
     epochs_single: int = 14  # one-step programs on episodes where one box changed
@@ -55,3 +58,4 @@ class NSRM2Config(ModelConfig):
         super().validate()
         self.require(self.members >= 1, "members", "at least 1")
         self.require(self.filter_link in self.LINKS, "filter_link", f"one of {self.LINKS}")
+        self.require(self.splitter_gap >= 3, "splitter_gap", "at least 3 (the splitter's window)")

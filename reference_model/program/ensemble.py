@@ -10,7 +10,7 @@ mostly not the other's. Read together, the members' errors mostly cancel:
   argmax). Its features and codes are the members' side by side, so that the decoder
   (:func:`~.inference.decode`) and the oracle ladder run it as any step model.
 - :class:`EnsembleSplitter` cuts where the mean of its members' boundary probabilities
-  peaks, at the mean of their fitted thresholds.
+  peaks, at the mean of their fitted thresholds (and their one ``gap``).
 
 Members train in parallel, one process each (:func:`train_members`), each a whole run of
 its own (resumable, selected on val as any run) in ``out/member-K``; the ensemble is then
@@ -67,6 +67,12 @@ class EnsembleSplitter(Splitter):
 
     def __init__(self, members: Sequence[Splitter]) -> None:
         nn.Module.__init__(self)
+        gaps = sorted({m.gap for m in members})
+        if len(gaps) != 1:
+            msg = (f"an ensemble's splitters must share one gap, got {gaps}; train the "
+                   f"members with one splitter_gap")
+            raise ValueError(msg)
+        self.gap = gaps[0]
         self.members = nn.ModuleList(members)
         self.register_buffer("calibration", torch.tensor([1.0, 0.0]))
         # a buffer, so that the checkpoint carries it (loading restores the trained value)

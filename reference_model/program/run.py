@@ -95,11 +95,13 @@ class ProgramModelBase(ProgramPredictionModel):
     def build_network(cls, config: Any, vocab_size: int,
                       state: Mapping[str, torch.Tensor]) -> ProgramModel:
         members = int(config.members)
+        gap = int(config.splitter_gap)
         if members == 1:
-            return ProgramModel(cls.step_model(config, vocab_size), Splitter(vocab_size))
+            return ProgramModel(cls.step_model(config, vocab_size),
+                                Splitter(vocab_size, gap=gap))
         return ProgramModel(
             EnsembleStep([cls.step_model(config, vocab_size) for _ in range(members)]),
-            EnsembleSplitter([Splitter(vocab_size) for _ in range(members)]))
+            EnsembleSplitter([Splitter(vocab_size, gap=gap) for _ in range(members)]))
 
     @classmethod
     def _train(cls, data: Path, out: Path, cfg: ModelConfig, seed: int, threads: int,

@@ -337,3 +337,48 @@ def test_splitter_threshold_is_the_low_end_of_what_counts_training_episodes_righ
     assert fit_threshold(*episodes(0)) == pytest.approx(0.21)
     assert fit_threshold(*episodes(1)) == pytest.approx(0.21)
     assert fit_threshold(*episodes(10)) == pytest.approx(0.51)
+
+
+def _boundary_probabilities(logits: torch.Tensor) -> Callable[[torch.Tensor], torch.Tensor]:
+    def forward(tokens: torch.Tensor) -> torch.Tensor:
+        out = logits[None].expand(len(tokens), -1).clone()
+        out[:, 0] = float("-inf")
+        return out
+    return forward
+
+
+def test_boundary_peaks_closer_than_a_step_are_one_boundary() -> None:
+    """paper-v2/test 000308's probabilities: 0.39 at "and" inside the base's reference and
+    0.31 at "after" five tokens later (the teacher's steps read the same cut at either).
+    With the window as the gap (checkpoints from before ``splitter_gap``) both are cuts,
+    three steps; with a gap of 5 they are one boundary, two steps. Peaks further apart
+    than the gap are still two boundaries."""
+    probs = torch.full((40,), 0.001)
+    probs[23], probs[28] = 0.39, 0.31
+    logits = torch.logit(probs)
+    tokens = [list(range(2, 42))]
+    cuts = {}
+    for gap in (3, 5):
+        splitter = Splitter(50, gap=gap).eval()
+        splitter.threshold = torch.tensor(0.23)
+        splitter.forward = _boundary_probabilities(logits)  # type: ignore[method-assign]
+        cuts[gap] = splitter.cuts(tokens)[0]
+    assert cuts[3] == [23, 28]
+    assert cuts[5] == [23]
+    probs[28] = 0.001
+    probs[30] = 0.31  # seven tokens on: a step can be that short
+    splitter.forward = _boundary_probabilities(torch.logit(probs))  # type: ignore[method-assign]
+    assert splitter.cuts(tokens)[0] == [23, 30]
+
+
+def test_splitter_gap_reads_3_from_old_checkpoints_and_refuses_less() -> None:
+    assert NSRM2Config.from_dict({}).splitter_gap == 3
+    assert NSRM2Config().splitter_gap == 5
+    with pytest.raises(InvalidArgument, match=r"splitter_gap = 2.*at least 3"):
+        NSRM2Config(splitter_gap=2)
+    with pytest.raises(ValueError, match=r"gap must be at least its WINDOW \(3\).*got 1"):
+        Splitter(10, gap=1)
+    from nsrmp_bench.reference_model.program.ensemble import EnsembleSplitter
+
+    with pytest.raises(ValueError, match=r"share one gap, got \[3, 5\]"):
+        EnsembleSplitter([Splitter(10, gap=3), Splitter(10, gap=5)])
