@@ -119,8 +119,8 @@ class Splitter(nn.Module):
     of one boundary, not two steps. With ``gap`` 3 (= ``WINDOW``, checkpoints from before
     it) a boundary whose mass the teacher spread 4-5 tokens apart, between a
     reference's inner "and" ("... that is white and | is a lego , after | that ...": the
-    steps read the same cut at either) and the connector, was cut twice: 7 of the 10
-    splitting misses on paper-v2/test, most of those on steps-v2's long instructions.
+    steps read the same cut at either) and the connector, was cut twice: 7 of the 9
+    paper-v2/test instructions cut into a wrong number of steps by the checkpoint before.
     Where the steps start (:meth:`cuts`):
 
     - ``threshold`` t >= 0: at every peak whose mass reaches t. Each boundary is then
