@@ -29,6 +29,7 @@ from typing import Any
 from nsrmp_bench.cli.main import main as cli
 from nsrmp_bench.reference_model.program.data import read_items
 from nsrmp_bench.reference_model.program.inference import Oracle
+from nsrmp_bench.reference_model.program.run import ProgramModelBase
 from nsrmp_bench.reference_model.registry import load_model
 from nsrmp_bench.reference_model.tokens import tokenise
 from nsrmp_bench.storage.split_root import resolve_part
@@ -109,6 +110,25 @@ def gold_parts(items: list[dict[str, Any]], ds: Any) -> GoldParts:
                                   len(steps), words))
         out.symbolic.append(sym)
     return out
+
+
+def program_model_args(description: str, examples: int | None = None,
+                       ) -> tuple[argparse.Namespace, ProgramModelBase]:
+    """The measurement scripts' command line (``--model``, ``--data``, ``--checkpoint``
+    and, where ``examples`` is given, ``--examples`` with that default), parsed, and the
+    program model it names, loaded (any other model is refused)."""
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("--model", default="nsrm-v2")
+    ap.add_argument("--data", type=Path, required=True)
+    ap.add_argument("--checkpoint", type=Path)
+    if examples is not None:
+        ap.add_argument("--examples", type=int, default=examples, help="misses to print (per group where the script groups them)")
+    args = ap.parse_args()
+    model = load_model(args.model, args.checkpoint)
+    if not isinstance(model, ProgramModelBase):
+        msg = f"{args.model} is not a program model (nsrm-v2, nmn-v2)"
+        raise SystemExit(msg)
+    return args, model
 
 
 def _score(pred: Path, data: Path, tmp: Path) -> dict[str, Any]:

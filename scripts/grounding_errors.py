@@ -16,17 +16,13 @@ symbolic records: the model never sees them.
 
 from __future__ import annotations
 
-import argparse
 from collections import Counter, defaultdict
-from pathlib import Path
 from typing import Any
 
-from diagnose_program_model import gold_parts, match_lexed
+from diagnose_program_model import gold_parts, match_lexed, program_model_args
 
 from nsrmp_bench.reference_model.program.data import read_items
 from nsrmp_bench.reference_model.program.inference import Oracle
-from nsrmp_bench.reference_model.program.run import ProgramModelBase
-from nsrmp_bench.reference_model.registry import load_model
 
 PRONOUNS = ("it", "that", "that one")
 
@@ -63,21 +59,12 @@ def reference_kinds(symbolic: Any) -> list[tuple[str, str]]:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--model", default="nsrm-v2")
-    ap.add_argument("--data", type=Path, required=True)
-    ap.add_argument("--checkpoint", type=Path)
-    ap.add_argument("--examples", type=int, default=0, help="misses to print per group")
-    args = ap.parse_args()
-    model = load_model(args.model, args.checkpoint)
+    args, model = program_model_args(__doc__.splitlines()[0], examples=0)
     items, ds = read_items(args.data)
     parts = gold_parts(items, ds)
     gold = parts.steps
     kinds = [reference_kinds(sym) for sym in parts.symbolic]
     attrs = [[(o.colour, o.shape) for o in sym.scene.objects] for sym in parts.symbolic]
-    if not isinstance(model, ProgramModelBase):
-        msg = f"{args.model} is not a program model (nsrm-v2, nmn-v2)"
-        raise SystemExit(msg)
     decoded = model.programs(items, Oracle(cuts=parts.cuts, actions=parts.actions))
     right: Counter[tuple[str, str, str]] = Counter()
     total: Counter[tuple[str, str, str]] = Counter()

@@ -14,17 +14,13 @@ token ``k`` where either cut falls, and the splitter's three largest peaks.
 
 from __future__ import annotations
 
-import argparse
 from collections import Counter
-from pathlib import Path
 
 import torch
-from diagnose_program_model import gold_parts
+from diagnose_program_model import gold_parts, program_model_args
 
 from nsrmp_bench.reference_model.program.data import program_data, read_items
 from nsrmp_bench.reference_model.program.modules import pad_tokens
-from nsrmp_bench.reference_model.program.run import ProgramModelBase
-from nsrmp_bench.reference_model.registry import load_model
 
 NEAR = 2
 """Tokens a cut may be from the connector and still read the same steps."""
@@ -42,16 +38,7 @@ def kind(pred: list[int], gold: list[int]) -> str:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--model", default="nsrm-v2")
-    ap.add_argument("--data", type=Path, required=True)
-    ap.add_argument("--checkpoint", type=Path)
-    ap.add_argument("--examples", type=int, default=10, help="misses to print")
-    args = ap.parse_args()
-    model = load_model(args.model, args.checkpoint)
-    if not isinstance(model, ProgramModelBase):
-        msg = f"{args.model} is not a program model (nsrm-v2, nmn-v2)"
-        raise SystemExit(msg)
+    args, model = program_model_args(__doc__.splitlines()[0], examples=10)
     items, ds = read_items(args.data)
     gold = gold_parts(items, ds)
     data = program_data(items, model.vocab, model.rule)
