@@ -122,7 +122,8 @@ def program_model_args(description: str, examples: int | None = None,
     ap.add_argument("--data", type=Path, required=True)
     ap.add_argument("--checkpoint", type=Path)
     if examples is not None:
-        ap.add_argument("--examples", type=int, default=examples, help="misses to print (per group where the script groups them)")
+        ap.add_argument("--examples", type=int, default=examples,
+                        help="misses to print (per group where the script groups them)")
     args = ap.parse_args()
     model = load_model(args.model, args.checkpoint)
     if not isinstance(model, ProgramModelBase):
