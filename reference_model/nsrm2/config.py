@@ -18,7 +18,7 @@ class NSRM2Config(ModelConfig):
     ABSENT: ClassVar[Mapping[str, Any]] = {
         "object_sizes": False, "augment": False, "relation_after_head": False,
         "splitter_joins": 0, "joint_decay": False, "members": 1,
-        "filter_link": "logsigmoid", "splitter_gap": 3}
+        "filter_link": "logsigmoid", "splitter_gap": 3, "previous_after_link": False}
     LINKS: ClassVar[tuple[str, ...]] = ("logsigmoid", "linear", "leaky")
 
     concept_dim: int = 32
@@ -29,6 +29,9 @@ class NSRM2Config(ModelConfig):
     # large: a word true of an object it should not be cannot unlearn it); "linear" x
     # itself (a log-linear product of experts); "leaky" log sigmoid(x) + x / 10
     filter_link: str = "leaky"
+    # a word's affinity for the object the previous step moved ("it") is added after
+    # filter_link (a log-linear factor that no saturation bounds), not inside it
+    previous_after_link: bool = True
     word_dim: int = 32
     hidden: int = 64
     ordered_roles: bool = True  # a reference reads head, relation, anchor in that order

@@ -97,21 +97,29 @@ class ConceptStepModel(StepModel):
     def word_filter(self, tokens: Tensor, feats: Tensor,
                     previous: Tensor | None = None) -> Tensor:
         """(R, T, N): each word's term for each object in a reference's conjunction, from
-        its concept score x = concept . features + bias (+ its affinity for the object the
-        previous step moved, ``previous`` (R, N)), through ``filter_link``: log sigmoid(x)
-        (a log-probability), x, or "leaky" log sigmoid(x) + x / 10. Log sigmoid alone
-        saturates: a word that came to score an object high (``cube`` on dice, learnt
-        before the crops told the two apart) gets almost no gradient to lower it, so it
-        never unlearns it; the leak keeps a tenth of the gradient everywhere."""
+        its concept score x = concept . features + bias through ``filter_link``: log
+        sigmoid(x) (a log-probability), x, or "leaky" log sigmoid(x) + x / 10. Log sigmoid
+        alone saturates: a word that came to score an object high (``cube`` on dice,
+        learnt before the crops told the two apart) gets almost no gradient to lower it,
+        so it never unlearns it; the leak keeps a tenth of the gradient everywhere.
+
+        The word's affinity for the object the previous step moved (``previous`` (R, N))
+        is added after the link (``previous_after_link``, the default): inside it, as
+        checkpoints from before read it, the part that lands where the link saturates is
+        lost, and "it" preferred the previous subject by a fraction of its affinity."""
         logit: Tensor = torch.einsum("rtd,rnd->rtn", self.concept(tokens), feats)
         logit = logit + self.concept_bias(tokens)
-        if previous is not None:
-            logit = logit + self.previous(tokens) * previous[:, None]
+        affinity = None if previous is None else self.previous(tokens) * previous[:, None]
+        after = self.cfg.previous_after_link
+        if affinity is not None and not after:
+            logit = logit + affinity
         link = self.cfg.filter_link
         if link == "linear":
-            return logit
-        out = F.logsigmoid(logit)
-        return out + 0.1 * logit if link == "leaky" else out
+            out = logit
+        else:
+            out = F.logsigmoid(logit)
+            out = out + 0.1 * logit if link == "leaky" else out
+        return out + affinity if affinity is not None and after else out
 
     def step(self, code: Tensor, tokens: Tensor, feats: Tensor, centres: Tensor,
              previous: Tensor, mask: Tensor) -> StepOutput:

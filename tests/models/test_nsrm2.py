@@ -237,6 +237,29 @@ def test_a_word_true_of_the_wrong_object_can_unlearn_it(link: str, learns: bool)
     assert (pull > 0.01) == learns
 
 
+@pytest.mark.parametrize(("after", "margin"), [(False, 0.2), (True, 2.0)])
+def test_it_prefers_the_previous_subject_by_its_whole_affinity(after: bool,
+                                                               margin: float) -> None:
+    """The base is "it" (word 2) with an affinity of 2 for the object the previous step
+    moved (object 1), and the word's concept scores both objects 10. Inside the leaky
+    link the affinity moves object 1 from log sigmoid(10) + 1 to log sigmoid(12) + 1.2:
+    0.2 nats, all but the leak's share lost to saturation. After the link
+    (``previous_after_link``) it is the whole 2 nats."""
+    model = ConceptStepModel(3, NSRM2Config(concept_dim=4, previous_after_link=after))
+    tokens = torch.tensor([[2]])
+    code = torch.zeros((1, 1, len(ROLES)))
+    code[0, 0, ROLES.index("base")] = 1.0
+    mask = torch.ones((1, 2), dtype=torch.bool)
+    feats = torch.tensor([[[10.0, 0, 0, 0], [10.0, 0, 0, 0]]])
+    with torch.no_grad():
+        model.concept.weight[2, 0] = 1.0
+        model.previous.weight[2, 0] = 2.0
+    _, b_lp, _ = model.step(code, tokens, feats, torch.zeros((1, 2, 3)),
+                            torch.tensor([[0.0, 1.0]]), mask)
+    assert float(b_lp[0, 1] - b_lp[0, 0]) == pytest.approx(margin, abs=1e-3)
+    assert NSRM2Config.from_dict({}).previous_after_link is False
+
+
 def test_d8_positions_of_a_correct_program_pass_success_3d(
         smoke_test: Path, tmp_path: Path) -> None:
     """The gold program through NSRM v2's action rule: its positions are the objects'

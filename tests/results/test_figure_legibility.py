@@ -83,7 +83,10 @@ def test_references_are_grey_lines_and_the_scale_fits_the_models() -> None:
     greys = {s.colour for s in REFERENCE_STYLES.values()}
     for ax in fig.axes:
         _low, high = ax.get_ylim()
-        assert high < 0.95, "the oracle at 1.0 no longer sets the scale"
+        # the models set the scale (their highest interval end plus a margin); the
+        # oracle's 1.0 stays above it (a threshold of 0.95 held until nsrm-v2's best
+        # curve reached 0.89)
+        assert high < 1.0, "the oracle at 1.0 sets the scale"
         texts = [t.get_text() for t in ax.texts]
         assert any(t.startswith("oracle-v1 ") and "above the scale" in t for t in texts)
         for line in ax.get_lines():
