@@ -110,16 +110,10 @@ class ConceptStepModel(StepModel):
         logit: Tensor = torch.einsum("rtd,rnd->rtn", self.concept(tokens), feats)
         logit = logit + self.concept_bias(tokens)
         affinity = None if previous is None else self.previous(tokens) * previous[:, None]
-        after = self.cfg.previous_after_link
-        if affinity is not None and not after:
-            logit = logit + affinity
-        link = self.cfg.filter_link
-        if link == "linear":
-            out = logit
-        else:
-            out = F.logsigmoid(logit)
-            out = out + 0.1 * logit if link == "leaky" else out
-        return out + affinity if affinity is not None and after else out
+        if affinity is not None and not self.cfg.previous_after_link:
+            logit, affinity = logit + affinity, None
+        out = _link(logit, self.cfg.filter_link)
+        return out if affinity is None else out + affinity
 
     def step(self, code: Tensor, tokens: Tensor, feats: Tensor, centres: Tensor,
              previous: Tensor, mask: Tensor) -> StepOutput:
@@ -155,6 +149,15 @@ class ConceptStepModel(StepModel):
         action = torch.log_softmax(
             torch.einsum("rt,rtk->rk", code[..., _ACTION], self.action(tokens)), -1)
         return out[0], out[1], action
+
+
+def _link(x: Tensor, link: str) -> Tensor:
+    """A word's concept scores ``x`` through ``filter_link`` (see
+    :meth:`ConceptStepModel.word_filter`)."""
+    if link == "linear":
+        return x
+    out = F.logsigmoid(x)
+    return out + 0.1 * x if link == "leaky" else out
 
 
 def _before(weights: Tensor) -> Tensor:
