@@ -18,7 +18,8 @@ class NSRM2Config(ModelConfig):
     ABSENT: ClassVar[Mapping[str, Any]] = {
         "object_sizes": False, "augment": False, "relation_after_head": False,
         "splitter_joins": 0, "joint_decay": False, "members": 1,
-        "filter_link": "logsigmoid", "splitter_gap": 3, "previous_after_link": False}
+        "filter_link": "logsigmoid", "splitter_gap": 3, "previous_after_link": False,
+        "contiguous_references": False}
     LINKS: ClassVar[tuple[str, ...]] = ("logsigmoid", "linear", "leaky")
 
     concept_dim: int = 32
@@ -32,6 +33,9 @@ class NSRM2Config(ModelConfig):
     # a word's affinity for the object the previous step moved ("it") is added after
     # filter_link (a log-linear factor that no saturation bounds), not inside it
     previous_after_link: bool = True
+    # a reference is one phrase: its relation and anchor words end where the other
+    # reference's head begins after this reference's head (ConceptStepModel.step)
+    contiguous_references: bool = True
     word_dim: int = 32
     hidden: int = 64
     ordered_roles: bool = True  # a reference reads head, relation, anchor in that order

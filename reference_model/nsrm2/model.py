@@ -21,7 +21,9 @@ by the probability that no relation word of its reference came before it (the mo
 probable one so far), its anchor weight by the probability that one did; with
 ``relation_after_head`` (shipped) a word is a reference's relation only as far as that
 reference's head began before it, so the subject's relation word, earlier in the piece,
-does not silence the base's head words. Relations
+does not silence the base's head words; with ``contiguous_references`` a reference is one
+phrase, and no word after the other reference's head began (after this one's had) is its
+relation or its anchor, so the base's relation word cannot become the subject's. Relations
 are read on the centres the step is given: the world as the previous steps left it (D5).
 The role marginals are expectations of a linear score, so training and inference read
 the same parse (the argmax role of each token at inference is not needed: the score is
@@ -122,8 +124,15 @@ class ConceptStepModel(StepModel):
         eye = torch.eye(mask.shape[1], dtype=torch.bool, device=mask.device)
         others = mask[:, None, :] & ~eye[None]
         out = []
-        for head, rel, anchor in _REFS:
+        for k, (head, rel, anchor) in enumerate(_REFS):
             head_w, anchor_w, rel_w = code[..., head], code[..., anchor], code[..., rel]
+            if self.cfg.contiguous_references:
+                # a reference is one phrase: once the other reference's head began after
+                # this one's had (the most probable such word so far), no later word is
+                # this one's relation or anchor
+                other = code[..., _REFS[1 - k][0]]
+                inside = 1.0 - _before(other * _before(head_w))
+                rel_w, anchor_w = rel_w * inside, anchor_w * inside
             if self.cfg.relation_after_head:
                 # a word is the reference's relation only as far as the reference's head
                 # began before it (the most probable head word so far): the other

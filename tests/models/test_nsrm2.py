@@ -184,6 +184,23 @@ def test_d5_relations_read_on_the_current_state(smoke_test: Path) -> None:
     assert int(s_lp[0].argmax()) == 0
 
 
+def _parsed_scene(vocab: Vocabulary, words: tuple[str, ...],
+                  roles: tuple[tuple[int, str, float], ...], xs: tuple[float, ...]
+                  ) -> tuple[torch.Tensor, ...]:
+    """A piece of ``words`` with a fixed parse (token, role, probability) and one-hot
+    objects at ``xs`` along world x: tokens, role code, centres, mask and features."""
+    idx = {w: i for i, w in enumerate(vocab.words)}
+    tokens = torch.tensor([[idx[w] for w in words]])
+    code = torch.zeros((1, len(words), len(ROLES)))
+    for t, role, p in roles:
+        code[0, t, ROLES.index(role)] = p
+    centres = torch.zeros((1, len(xs), 3))
+    centres[0, :, 0] = torch.tensor(xs)
+    mask = torch.ones((1, len(xs)), dtype=torch.bool)
+    feats = _OneHot()(torch.zeros(0), mask, torch.zeros(0))
+    return tokens, code, centres, mask, feats
+
+
 def test_a_relation_word_before_a_references_head_is_not_its_relation() -> None:
     """"red left blue, go, blue": the subject's relation word ``left`` also reads a little
     as the base's relation (the parser is soft). With ``relation_after_head`` it counts
@@ -191,17 +208,11 @@ def test_a_relation_word_before_a_references_head_is_not_its_relation() -> None:
     it, that leak silences half of the base's head and makes the base "left of
     something", and the base is a red object."""
     vocab = Vocabulary(("<pad>", "<unk>", "blue", "go", "left", "red"))
-    idx = {w: i for i, w in enumerate(vocab.words)}
-    tokens = torch.tensor([[idx["red"], idx["left"], idx["blue"], idx["go"], idx["blue"]]])
-    code = torch.zeros((1, 5, len(ROLES)))
-    for t, role, p in ((0, "subject", 1.0), (1, "subject-relation", 0.5),
-                       (1, "base-relation", 0.5), (2, "subject-anchor", 1.0),
-                       (3, "none", 1.0), (4, "base", 1.0)):
-        code[0, t, ROLES.index(role)] = p
-    centres = torch.zeros((1, 3, 3))
-    centres[0, :, 0] = torch.tensor([-0.2, 0.0, 0.2])
-    mask = torch.ones((1, 3), dtype=torch.bool)
-    feats = _OneHot()(torch.zeros(0), mask, torch.zeros(0))
+    tokens, code, centres, mask, feats = _parsed_scene(
+        vocab, ("red", "left", "blue", "go", "blue"),
+        ((0, "subject", 1.0), (1, "subject-relation", 0.5), (1, "base-relation", 0.5),
+         (2, "subject-anchor", 1.0), (3, "none", 1.0), (4, "base", 1.0)),
+        (-0.2, 0.0, 0.2))
     bases = {}
     for flag in (True, False):
         model = _hand_model(vocab)
@@ -405,3 +416,30 @@ def test_splitter_gap_reads_3_from_old_checkpoints_and_refuses_less() -> None:
 
     with pytest.raises(ValueError, match=r"share one gap, got \[3, 5\]"):
         EnsembleSplitter([Splitter(10, gap=3), Splitter(10, gap=5)])
+
+
+@pytest.mark.parametrize(("contiguous", "subject"), [(False, 1), (True, 0)])
+def test_a_reference_ends_where_the_other_ones_head_begins(contiguous: bool,
+                                                            subject: int) -> None:
+    """"red left blue, go, red right blue": the red object left of the blue one (object
+    0) is the subject. The parser is soft and swaps the relation words by a little (as
+    the shipped one did on val): ``left`` reads 0.4 as the subject's relation and ``right``,
+    inside the base's phrase, 0.6. Read as one sum the subject's relation is "right of",
+    and the subject is object 1. With ``contiguous_references`` no word after the base's
+    head began is the subject's relation, and the subject is object 0."""
+    vocab = Vocabulary(("<pad>", "<unk>", "blue", "go", "left", "red", "right"))
+    tokens, code, centres, mask, feats = _parsed_scene(
+        vocab, ("red", "left", "blue", "go", "red", "right", "blue"),
+        ((0, "subject", 1.0), (1, "subject-relation", 0.4), (1, "base-relation", 0.6),
+         (2, "subject-anchor", 1.0), (3, "none", 1.0), (4, "base", 1.0),
+         (5, "subject-relation", 0.6), (5, "base-relation", 0.4), (6, "base-anchor", 1.0)),
+        (-0.2, 0.2, 0.0))
+    idx = {w: i for i, w in enumerate(vocab.words)}
+    model = _hand_model(vocab)
+    model.cfg = NSRM2Config(concept_dim=4, contiguous_references=contiguous)
+    with torch.no_grad():
+        model.relation.weight[idx["right"]] = torch.tensor([20.0, 0.0, 0.0])
+        model.relation_bias.weight[idx["right"]] = -1.5 * 20.0
+    s_lp, _, _ = model.step(code, tokens, feats, centres, torch.zeros((1, 3)), mask)
+    assert int(s_lp[0].argmax()) == subject
+    assert NSRM2Config.from_dict({}).contiguous_references is False
