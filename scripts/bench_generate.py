@@ -1,7 +1,7 @@
 """Generation speed before and after the lean reset and the writer thread, side by side.
 
     python scripts/bench_generate.py [--split paper-v2] [--part test] [--episodes 100]
-                                     [--repeat 5] [--large 100] [--forked]
+                                     [--repeat 5] [--large 100] [--forked] [--breakdown]
 
 (about 5 minutes with the defaults: each end-to-end run writes one whole shard of 100
 episodes, as the ``generate`` verb does, so the shard's fork and commit count as often as
@@ -15,7 +15,11 @@ resting arm's collision hulls reduced to their bounding points, ``World.begin(..
 robot_collision=False)``) and ``ShardWriter(background="process")`` (hash, compress and
 write in a child process forked for the shard, the images handed over through shared
 memory, :mod:`~nsrmp_bench.storage.handover`: what ``generate`` does with one worker on a
-machine of two cores or more, ``generate.shard_writer_mode``). Both make the same bytes
+machine of two cores or more, ``generate.shard_writer_mode``), whose lean instances run in
+a client without a renderer and are drawn by the objects' render twin
+(:mod:`~nsrmp_bench.generators.world.object_twin`). "lean" is "after" without the twin
+(``World(object_twin=False)``: every body and render in one client, the generator before
+the twin). All three make the same bytes
 (``tests/world/test_determinism.py``, ``tests/world/test_robot_clearance.py``,
 ``tests/storage/test_writer_background.py``, and ``generate`` + ``verify`` of every
 committed part).
@@ -32,6 +36,10 @@ Printed:
 * 1024x768 (the original generator's image size): seconds per episode end to end, against
   the original's 1.02 s per sample on one core of this machine
   (``shared/reference/nsrm-original-datagen.md`` §7.4).
+
+``--breakdown`` first prints what one object body costs to create, per shape: with its
+visual shape in a client with a renderer (as the world made them before the twin) and
+without one in the physics-only client (as it makes them now).
 
 ``--forked`` adds a third variant, "forked": ``World()`` primed once as a template and every
 instance made in a child forked from it (:func:`~nsrmp_bench.generators.world.template.
@@ -141,6 +149,37 @@ def med(xs: list[float]) -> float:
     return statistics.median(xs)
 
 
+def body_costs(n: int = 200) -> None:
+    """Print CPU ms per ``createMultiBody`` of each shape, with and without the renderer."""
+    import pybullet as pb
+
+    from nsrmp_bench.generators.world.assets import create_shape_ids
+    from nsrmp_bench.generators.world.object_twin import physics_only_client
+
+    clients = {"with its visual, renderer on": (int(pb.connect(pb.DIRECT)), True),
+               "no visual, physics-only client": (physics_only_client(pb), False)}
+    print("one object body, CPU ms per createMultiBody (median of 5 runs of "
+          f"{n} bodies):")
+    for shape in ("cube", "dice", "lego"):
+        row = []
+        for label, (c, visual) in clients.items():
+            runs = []
+            for _ in range(5):
+                pb.resetSimulation(physicsClientId=c)
+                ids = create_shape_ids(pb, c, shape)
+                start = time.process_time()
+                for i in range(n):
+                    pb.createMultiBody(baseMass=0.1, baseCollisionShapeIndex=ids.collision,
+                                       baseVisualShapeIndex=ids.visual if visual else -1,
+                                       basePosition=[2.0 * i, 50.0, -20.0],
+                                       physicsClientId=c)
+                runs.append((time.process_time() - start) / n * 1e3)
+            row.append(f"{label} {med(runs):.3f}")
+        print(f"  {shape:5s}: " + "; ".join(row))
+    for c, _ in clients.values():
+        pb.disconnect(physicsClientId=c)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--split", default="paper-v2")
@@ -151,18 +190,25 @@ def main() -> None:
                         help="episodes per 1024x768 run (0: skip)")
     parser.add_argument("--forked", action="store_true",
                         help="add the variant that makes every instance in a forked child")
+    parser.add_argument("--breakdown", action="store_true",
+                        help="first print what one object body costs, per shape")
     args = parser.parse_args()
+    if args.breakdown:
+        body_costs()
     spec = load_split(args.split)
     part, n = args.part, args.episodes
     print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
     cam = official_camera(*spec.image)
-    timed = {"before": TimedWorld(World(cam, lean_reset=False)), "after": TimedWorld(World(cam))}
+    timed = {"before": TimedWorld(World(cam, lean_reset=False)),
+             "lean": TimedWorld(World(cam, object_twin=False)),
+             "after": TimedWorld(World(cam))}
     if args.forked:
         timed["forked"] = TimedWorld(World(cam))
         timed["forked"].forked = True
     for t in timed.values():  # warm up: assets, cached background, imports
         t.episode(spec, part, 0)
-    writer: dict[str, Background] = {"before": False, "after": "process", "forked": "process"}
+    writer: dict[str, Background] = {"before": False, "lean": "process", "after": "process",
+                                     "forked": "process"}
 
     gen = alternate(args.repeat, {
         name: (lambda t=t: generate_only(spec, part, n, t)) for name, t in timed.items()})
@@ -206,6 +252,7 @@ def main() -> None:
     if args.large > 0:
         big = official_camera(1024, 768)
         worlds = {"before": TimedWorld(World(big, lean_reset=False)),
+                  "lean": TimedWorld(World(big, object_twin=False)),
                   "after": TimedWorld(World(big))}
         if args.forked:
             worlds["forked"] = TimedWorld(World(big))

@@ -8,6 +8,8 @@ Modules (import them by name; this package imports nothing heavy on its own):
 * :mod:`.world`: :class:`~.world.World`, one DIRECT client per process, reset before
   every instance and rebuilt with the table, the Panda and the instance's objects;
   settling; TinyRenderer renders;
+* :mod:`.object_twin`: the physics-only client of lean instances and the render twin
+  that draws their objects (a pool of bodies per shape, never reset);
 * :mod:`.targets`: amodal and visible boxes, visible fractions, centre depths;
 * :mod:`.realise`: :func:`~.realise.realise`, the execution of a symbolic episode with
   typed rejections (:class:`~.realise.PhysicsRejection`), each step carried out by a

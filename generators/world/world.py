@@ -5,6 +5,12 @@ instance starts from a freshly reset simulation: :meth:`World.begin` resets the 
 (``resetSimulation``), reloads the table and the Panda and creates one body per object of
 the scene, in scene order. Nothing of an earlier instance survives into the next.
 
+An instance begun without scenery visuals (teleport-and-settle once the empty scene is
+cached) is simulated in a second client whose renderer is off, so its reset builds no
+render meshes; its composite renders are drawn by the objects' render twin, a third
+client that is never reset and keeps its bodies from one instance to the next
+(:mod:`~nsrmp_bench.generators.world.object_twin`; the same bytes).
+
 Determinism (same inputs give the same bytes whatever the process did before; tests
 realise episodes after other episodes, in shuffled orders and in subprocesses, and
 compare them):
@@ -48,10 +54,15 @@ from nsrmp_bench.generators.world.assets import (
     ensure_dice_textures,
     lean_panda_urdf,
 )
+from nsrmp_bench.generators.world.object_twin import (
+    ObjectTwin,
+    object_look,
+    physics_only_client,
+)
 from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.geometry.default_camera import OFFICIAL_CAMERA
 from nsrmp_bench.scene import Pose, SceneObject
-from nsrmp_bench.vocabulary import COLOUR_RGBA, TABLE_TOP_Z
+from nsrmp_bench.vocabulary import TABLE_TOP_Z
 
 __all__ = [
     "GROUP_OBJECT",
@@ -176,6 +187,13 @@ class World:
     ``begin(..., scenery_visuals=False)`` is honoured. ``lean_reset=False`` is the reset as
     it was (every file as shipped, every visual loaded), kept to measure the difference
     (``scripts/bench_generate.py``).
+
+    ``object_twin`` (the default; only with ``lean_reset``) simulates an instance begun
+    without scenery visuals in a second client whose renderer is off, and draws its
+    composite renders in a third that keeps the objects' bodies from one instance to the
+    next (:mod:`~nsrmp_bench.generators.world.object_twin`): the reset then builds no
+    render meshes, with the same bytes. :attr:`client` is the physics client of the
+    current instance.
     """
 
     def __init__(
@@ -185,6 +203,7 @@ class World:
         config: WorldConfig | None = None,
         cache_dir: str | Path | None = None,
         lean_reset: bool = True,
+        object_twin: bool = True,
     ) -> None:
         self.pb: Any = require("pybullet")
         self._cv2: Any = require("cv2")
@@ -195,6 +214,7 @@ class World:
         self._assets = asset_cache_dir(cache_dir)
         self._texture_files = ensure_dice_textures(self._assets)
         self.lean_reset = lean_reset
+        self.object_twin = object_twin and lean_reset
         lean = self.config.panda == "lean"
         self._panda_urdf = (str(lean_panda_urdf(self._assets, self._data_path,
                                                 lean_collision=lean_reset))
@@ -213,6 +233,9 @@ class World:
         if self.client < 0:
             msg = "PyBullet could not start a DIRECT client"
             raise RuntimeError(msg)
+        self._full_client = self.client  # renders: instances begun with scenery visuals
+        self._lean_client: int | None = None  # physics only: the twin draws its objects
+        self._twin: ObjectTwin | None = None
         self._closed = False
         self.plane: int | None = None
         self.table: int = -1
@@ -273,8 +296,9 @@ class World:
             self._load_panda(flags, robot_collision)
         self._scenery_visuals = visuals
         # visual shapes of the table, floor and robot: (body, link, rgba), hidden while
-        # the objects are rendered over a cached empty scene (render(composite=True))
-        self._scenery = tuple(
+        # the objects are rendered over a cached empty scene (render(composite=True));
+        # none in the physics-only client, which never renders
+        self._scenery = () if c == self._lean_client else tuple(
             (int(d[0]), int(d[1]), tuple(float(v) for v in d[7]))
             for b in (self.plane, self.table, self.panda) if b is not None
             for d in pb.getVisualShapeData(b, physicsClientId=c))
@@ -317,9 +341,10 @@ class World:
                  for link in range(-1, pb.getNumJoints(body, physicsClientId=c))],
                 dtype=np.float64)
 
-    def _create_objects(self, objects: Sequence[SceneObject]) -> list[int]:
-        """One body per object, in scene order, coloured, parked far apart below the floor
-        (colliding with nothing there) until :meth:`place`."""
+    def _create_objects(self, objects: Sequence[SceneObject], visuals: bool) -> list[int]:
+        """One body per object, in scene order, coloured (without a visual shape unless
+        ``visuals``), parked far apart below the floor (colliding with nothing there)
+        until :meth:`place`."""
         pb, c = self.pb, self.client
         shapes: dict[str, ShapeIds] = {}
         textures: dict[str, int] = {}
@@ -331,7 +356,7 @@ class World:
             body = int(pb.createMultiBody(
                 baseMass=OBJECT_DYNAMICS["mass"],
                 baseCollisionShapeIndex=shapes[obj.shape].collision,
-                baseVisualShapeIndex=shapes[obj.shape].visual,
+                baseVisualShapeIndex=shapes[obj.shape].visual if visuals else -1,
                 basePosition=park,
                 useMaximalCoordinates=False,
                 physicsClientId=c,
@@ -350,15 +375,16 @@ class World:
             pb.setCollisionFilterGroupMask(body, -1, GROUP_OBJECT,
                                            GROUP_SCENERY | GROUP_OBJECT | GROUP_ROBOT,
                                            physicsClientId=c)
-            if obj.shape == "dice":
-                if obj.colour not in textures:
-                    textures[obj.colour] = int(pb.loadTexture(
-                        str(self._texture_files[obj.colour]), physicsClientId=c))
-                pb.changeVisualShape(body, -1, textureUniqueId=textures[obj.colour],
-                                     rgbaColor=[1.0, 1.0, 1.0, 1.0], physicsClientId=c)
-            else:
-                pb.changeVisualShape(body, -1, rgbaColor=list(COLOUR_RGBA[obj.colour]),
-                                     physicsClientId=c)
+            if visuals:
+                texture, rgba = object_look(obj)
+                if texture is None:
+                    pb.changeVisualShape(body, -1, rgbaColor=list(rgba), physicsClientId=c)
+                else:
+                    if texture not in textures:
+                        textures[texture] = int(pb.loadTexture(
+                            str(self._texture_files[texture]), physicsClientId=c))
+                    pb.changeVisualShape(body, -1, textureUniqueId=textures[texture],
+                                         rgbaColor=list(rgba), physicsClientId=c)
             bodies.append(body)
         return bodies
 
@@ -408,19 +434,56 @@ class World:
         realising then starts again with its hulls whole. Ignored (hulls whole) with
         scenery visuals or without ``lean_reset``.
         """
-        visuals = scenery_visuals or not self.lean_reset
+        visuals = self._use_client(scenery_visuals)
         build = (visuals, robot_collision or visuals)
         if self._pristine != build:
             self._build_scenery(*build)
         self._pristine = None
-        bodies = self._create_objects(objects)
+        bodies = self._create_objects(objects, visuals=self._twin is None or visuals)
         n = self.pb.getNumBodies(physicsClientId=self.client)
         self._seg_lut = np.full(n + 2, -1, dtype=np.int16)  # entry 0: PyBullet's -1
         for i, body in enumerate(bodies):
             self._seg_lut[body + 1] = i
         self.bodies = tuple(bodies)
         self.objects = tuple(objects)
+        if self._twin is not None and not visuals:
+            self._twin.assign(objects)
         return self.bodies
+
+    def _use_client(self, scenery_visuals: bool) -> bool:
+        """Make the client an instance with(out) ``scenery_visuals`` runs in the current
+        one (see ``object_twin``); whether the scenery gets its visuals."""
+        visuals = scenery_visuals or not self.lean_reset
+        client = self._full_client
+        if not visuals and self.object_twin:
+            if self._lean_client is None:
+                self._lean_client = physics_only_client(self.pb)
+                self._twin = ObjectTwin(self.pb, self._texture_files)
+            client = self._lean_client
+        if client != self.client:
+            self.client = client
+            self._pristine = None
+        return visuals
+
+    @property
+    def _twin_draws(self) -> bool:
+        """Whether the current instance's composite renders are drawn by the twin."""
+        return self._twin is not None and self.client == self._lean_client
+
+    @property
+    def render_client(self) -> int:
+        """The client the current instance's composite renders are drawn in: the render
+        twin's for an instance begun without scenery visuals (``object_twin``), else
+        :attr:`client`."""
+        if self._twin_draws:
+            assert self._twin is not None
+            return self._twin.client
+        return self.client
+
+    @property
+    def twin(self) -> ObjectTwin | None:
+        """The objects' render twin, once an instance has used it (``object_twin``)."""
+        return self._twin
 
     def prime(self, *, scenery_visuals: bool = False) -> None:
         """Reset the simulation and build the scenery (the first half of :meth:`begin`),
@@ -431,7 +494,7 @@ class World:
         without reloading the table and the Panda. Placing, stepping or settling in between
         voids it: the next ``begin`` then resets as usual.
         """
-        visuals = scenery_visuals or not self.lean_reset
+        visuals = self._use_client(scenery_visuals)
         self._build_scenery(visuals)
         self._pristine = (visuals, True)
 
@@ -562,10 +625,12 @@ class World:
         rgb, zbuf, seg_ids = self._raw_zbuffer(cam)
         return rgb, cam.linearize_depth(zbuf), seg_ids
 
-    def _raw_zbuffer(self, cam: Camera) -> tuple[NDArray[np.uint8], NDArray[Any],
-                                                 NDArray[np.int32]]:
-        """:meth:`_raw` with the z-buffer as TinyRenderer gives it, in [0, 1]."""
-        pb, c, cv2 = self.pb, self.client, self._cv2
+    def _raw_zbuffer(self, cam: Camera, client: int | None = None
+                     ) -> tuple[NDArray[np.uint8], NDArray[Any], NDArray[np.int32]]:
+        """:meth:`_raw` with the z-buffer as TinyRenderer gives it, in [0, 1] (in
+        ``client``, by default the world's)."""
+        pb, cv2 = self.pb, self._cv2
+        c = self.client if client is None else client
         view, projection = _gl_matrices(cam)
         _, _, rgba, zbuf, seg = pb.getCameraImage(
             cam.width,
@@ -609,8 +674,16 @@ class World:
                    "World.prepare_background(camera) right after World.begin(), while the "
                    "objects are parked and the robot is at rest")
             raise InvalidArgument(msg)
-        with self._hidden(self._scenery):
-            rgb_o, zbuf_o, seg_o = self._raw_zbuffer(cam)
+        lut = self._seg_lut
+        if self._twin_draws:
+            twin = self._twin
+            assert twin is not None
+            twin.follow(self.client, self.bodies)
+            rgb_o, zbuf_o, seg_o = self._raw_zbuffer(cam, twin.client)
+            lut = twin.lut
+        else:
+            with self._hidden(self._scenery):
+                rgb_o, zbuf_o, seg_o = self._raw_zbuffer(cam)
         cv2 = self._cv2
         seen = seg_o >= 0
         rgb = background.rgb.copy()
@@ -619,8 +692,8 @@ class World:
         # only the objects' pixels are kept: only they are made metric (pixel by pixel,
         # so the same values)
         depth[seen] = cam.linearize_depth(zbuf_o[seen])
-        segmentation = np.full(seg_o.shape, -1, dtype=self._seg_lut.dtype)  # lut[0] = -1
-        segmentation[seen] = self._seg_lut[seg_o[seen] + 1]
+        segmentation = np.full(seg_o.shape, -1, dtype=lut.dtype)  # lut[0] = -1
+        segmentation[seen] = lut[seg_o[seen] + 1]
         return RenderedImages(rgb, depth, segmentation)
 
     def prepare_background(self, camera: Camera | None = None) -> None:
@@ -684,7 +757,11 @@ class World:
     def close(self) -> None:
         """Disconnect the client (idempotent)."""
         if not self._closed:
-            self.pb.disconnect(physicsClientId=self.client)
+            self.pb.disconnect(physicsClientId=self._full_client)
+            if self._lean_client is not None:
+                self.pb.disconnect(physicsClientId=self._lean_client)
+            if self._twin is not None:
+                self._twin.close()
             self._closed = True
 
     def __enter__(self) -> World:
