@@ -39,7 +39,9 @@ Printed:
 
 ``--breakdown`` first prints what one object body costs to create, per shape: with its
 visual shape in a client with a renderer (as the world made them before the twin) and
-without one in the physics-only client (as it makes them now).
+without one in the physics-only client (as it makes them now); and what a 1024x768
+composite render costs copied into an episode's fresh arrays (as ``realise`` did) against
+written into them (``World.render(out=...)``, what it does now).
 
 ``--forked`` adds a third variant, "forked": ``World()`` primed once as a template and every
 instance made in a child forked from it (:func:`~nsrmp_bench.generators.world.template.
@@ -180,6 +182,47 @@ def body_costs(n: int = 200) -> None:
         pb.disconnect(physicsClientId=c)
 
 
+def render_costs(spec: SplitSpec, part: str, rounds: int = 10) -> None:
+    """Print CPU ms per 1024x768 composite render of a settled instance, copied into an
+    episode's fresh arrays against written into them (``out=``), alternating."""
+    import numpy as np
+
+    from nsrmp_bench.generators.world.world import RenderedImages
+
+    cam = official_camera(1024, 768)
+    world = World(cam)
+    for i in range(2):  # the second instance is lean and leaves its objects settled
+        make_episode(spec, part, i, world)
+    shape = (3, cam.height, cam.width)
+
+    def copied() -> None:
+        rgb, depth = np.empty((*shape, 3), np.uint8), np.empty(shape, np.float32)
+        seg = np.empty(shape, np.int16)
+        for k in range(3):
+            images = world.render(cam, composite=True)
+            rgb[k], depth[k], seg[k] = images.rgb, images.depth, images.segmentation
+
+    def written() -> None:
+        rgb, depth = np.empty((*shape, 3), np.uint8), np.empty(shape, np.float32)
+        seg = np.empty(shape, np.int16)
+        for k in range(3):
+            world.render(cam, composite=True, out=RenderedImages(rgb[k], depth[k], seg[k]))
+
+    def per_render(fn: Callable[[], None]) -> float:
+        start = time.process_time()
+        for _ in range(5):
+            fn()
+        return (time.process_time() - start) / 15 * 1e3
+
+    runs = alternate(rounds, {"copied": lambda: per_render(copied),
+                              "written": lambda: per_render(written)})
+    pairs = [w / c for w, c in zip(runs["written"], runs["copied"], strict=True)]
+    print(f"1024x768 composite render, CPU ms (median of {rounds} alternating runs of 15): "
+          f"copied into the episode's arrays {med(runs['copied']):.1f}, written into them "
+          f"{med(runs['written']):.1f} ({med(pairs):.2f}x pair by pair)")
+    world.close()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--split", default="paper-v2")
@@ -195,6 +238,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.breakdown:
         body_costs()
+        render_costs(load_split(args.split), args.part)
     spec = load_split(args.split)
     part, n = args.part, args.episodes
     print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")

@@ -43,7 +43,7 @@ from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.episode import ObjectTargets, Observations, Rendering
 from nsrmp_bench.errors import GenerationError, InvalidArgument
 from nsrmp_bench.generators.world.targets import frame_targets
-from nsrmp_bench.generators.world.world import TABLE_HALF_SIZE, World
+from nsrmp_bench.generators.world.world import TABLE_HALF_SIZE, RenderedImages, World
 from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.scene import Pose, Scene, State
 from nsrmp_bench.vocabulary import TABLE_TOP_Z
@@ -425,10 +425,8 @@ def _realise(scene: Scene, states: Sequence[State], grounded: Sequence[GroundedS
             min_frac: float | None = None
             if render:
                 assert rgb is not None and depth is not None and seg is not None
-                images = world.render(cam, composite=composite)
-                rgb[k] = images.rgb
-                depth[k] = images.depth
-                seg[k] = images.segmentation
+                images = world.render(cam, composite=composite,
+                                      out=RenderedImages(rgb[k], depth[k], seg[k]))
                 ft = frame_targets(cam, scene.objects, settled, images.segmentation)
                 visible[k] = ft.boxes_visible
                 fraction[k] = ft.visible_fraction

@@ -169,6 +169,21 @@ class SettleResult:
     extra: dict[str, float] = field(default_factory=dict)
 
 
+def _check_out(out: RenderedImages, cam: Camera) -> None:
+    """Raise unless ``out`` holds arrays a ``cam`` render can be written into."""
+    h, w = cam.height, cam.width
+    want = (("rgb", (h, w, 3), np.uint8), ("depth", (h, w), np.float32),
+            ("segmentation", (h, w), np.int16))
+    for name, shape, dtype in want:
+        arr = getattr(out, name)
+        if arr.shape != shape or arr.dtype != dtype or not arr.flags.writeable:
+            msg = (f"World.render(out=...): out.{name} is a {arr.dtype} array of shape "
+                   f"{arr.shape}{'' if arr.flags.writeable else ', read-only'}; expected "
+                   f"a writeable {np.dtype(dtype)} array of shape {shape} for a {w}x{h} "
+                   "camera; pass arrays of that camera's size or leave out= unset")
+            raise InvalidArgument(msg)
+
+
 @lru_cache(maxsize=32)
 def _gl_matrices(camera: Camera) -> tuple[list[float], list[float]]:
     return camera.view_matrix_gl, camera.projection_matrix_gl_pixel_centred
@@ -653,8 +668,14 @@ class World:
         cv2.copyTo(self._fill(cam.height, cam.width), (seg_ids < 0).view(np.uint8), rgb)
         return rgb, np.asarray(zbuf).reshape(cam.height, cam.width), seg_ids
 
-    def render(self, camera: Camera | None = None, *, composite: bool = False) -> RenderedImages:
+    def render(self, camera: Camera | None = None, *, composite: bool = False,
+               out: RenderedImages | None = None) -> RenderedImages:
         """Render RGB, metric depth and object-index segmentation with TinyRenderer.
+
+        ``out`` (arrays of the camera's shape and the images' dtypes, e.g. one state's
+        slices of an episode's arrays) receives the images and is returned: a composite
+        render is then assembled in place, without an intermediate copy of the
+        background (the same values).
 
         ``composite=True`` renders only the objects, with the table and the robot hidden,
         over a cached image of the empty scene (see :meth:`prepare_background`, which must
@@ -664,10 +685,18 @@ class World:
         the same depth (measured: 2 of 34,000 object pixels over 10 scenes at 320x240).
         """
         cam = self.camera if camera is None else camera
+        if out is not None:
+            _check_out(out, cam)
         if not composite:
             self._require_scenery_visuals("a full render (composite=False)")
             rgb, depth, seg_ids = self._raw(cam)
-            return RenderedImages(rgb, depth, np.take(self._seg_lut, seg_ids + 1))
+            full = RenderedImages(rgb, depth, np.take(self._seg_lut, seg_ids + 1))
+            if out is None:
+                return full
+            np.copyto(out.rgb, full.rgb)
+            np.copyto(out.depth, full.depth)
+            np.copyto(out.segmentation, full.segmentation)
+            return out
         background = self._scenery_cache.get(cam)
         if background is None:
             msg = (f"no cached background for a {cam.width}x{cam.height} camera; call "
@@ -686,15 +715,19 @@ class World:
                 rgb_o, zbuf_o, seg_o = self._raw_zbuffer(cam)
         cv2 = self._cv2
         seen = seg_o >= 0
-        rgb = background.rgb.copy()
-        cv2.copyTo(rgb_o, seen.view(np.uint8), rgb)
-        depth = background.depth.copy()
+        if out is None:
+            out = RenderedImages(background.rgb.copy(), background.depth.copy(),
+                                 background.segmentation.copy())  # all -1 (= lut[0])
+        else:
+            np.copyto(out.rgb, background.rgb)
+            np.copyto(out.depth, background.depth)
+            np.copyto(out.segmentation, background.segmentation)
+        cv2.copyTo(rgb_o, seen.view(np.uint8), out.rgb)
         # only the objects' pixels are kept: only they are made metric (pixel by pixel,
         # so the same values)
-        depth[seen] = cam.linearize_depth(zbuf_o[seen])
-        segmentation = np.full(seg_o.shape, -1, dtype=lut.dtype)  # lut[0] = -1
-        segmentation[seen] = lut[seg_o[seen] + 1]
-        return RenderedImages(rgb, depth, segmentation)
+        out.depth[seen] = cam.linearize_depth(zbuf_o[seen])
+        out.segmentation[seen] = lut[seg_o[seen] + 1]
+        return out
 
     def prepare_background(self, camera: Camera | None = None) -> None:
         """Cache the empty scene (table, robot at rest, no objects) for ``camera``.

@@ -13,6 +13,7 @@ cv2 = pytest.importorskip("cv2")
 from world_scenes import grid_scene  # noqa: E402
 
 from nsrmp_bench.errors import InvalidArgument  # noqa: E402
+from nsrmp_bench.generators.world.world import RenderedImages  # noqa: E402
 from nsrmp_bench.geometry.default_camera import OFFICIAL_CAMERA  # noqa: E402
 from nsrmp_bench.vocabulary import COLOURS, EXTENTS, SHAPES, TABLE_TOP_Z, TARGET_AREA  # noqa: E402
 
@@ -157,6 +158,29 @@ def test_composite_render_equals_the_full_render(world: Any) -> None:
     same = ~differ
     assert np.array_equal(comp.rgb[same], full.rgb[same])
     assert np.array_equal(comp.depth[same], full.depth[same])
+    # written into given arrays (one state's slices of an episode's), the same values
+    h, w = comp.segmentation.shape
+    rgb = np.zeros((2, h, w, 3), np.uint8)
+    depth = np.zeros((2, h, w), np.float32)
+    seg = np.zeros((2, h, w), np.int16)
+    for k, composite, expected in ((0, True, comp), (1, False, full)):
+        out = RenderedImages(rgb[k], depth[k], seg[k])
+        assert world.render(composite=composite, out=out) is out
+        for a, b in ((rgb[k], expected.rgb), (depth[k], expected.depth),
+                     (seg[k], expected.segmentation)):
+            assert np.array_equal(a, b)
+
+
+def test_render_into_arrays_of_another_size_is_refused(world: Any) -> None:
+    h, w = OFFICIAL_CAMERA.height, OFFICIAL_CAMERA.width
+    wrong = RenderedImages(np.zeros((h, w + 1, 3), np.uint8), np.zeros((h, w), np.float32),
+                           np.zeros((h, w), np.int16))
+    with pytest.raises(InvalidArgument, match=r"out\.rgb .* shape \(.*\); expected"):
+        world.render(composite=True, out=wrong)
+    ints = RenderedImages(np.zeros((h, w, 3), np.uint8), np.zeros((h, w), np.float64),
+                          np.zeros((h, w), np.int16))
+    with pytest.raises(InvalidArgument, match="out.depth is a float64"):
+        world.render(out=ints)
 
 
 def test_composite_render_needs_a_prepared_background(world: Any) -> None:
