@@ -179,7 +179,7 @@ def test_render_into_arrays_of_another_size_is_refused(world: Any) -> None:
         world.render(composite=True, out=wrong)
     ints = RenderedImages(np.zeros((h, w, 3), np.uint8), np.zeros((h, w), np.float64),
                           np.zeros((h, w), np.int16))
-    with pytest.raises(InvalidArgument, match="out.depth is a float64"):
+    with pytest.raises(InvalidArgument, match=r"out\.depth is a float64"):
         world.render(out=ints)
 
 
