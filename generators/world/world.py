@@ -454,20 +454,22 @@ class World:
         if self._pristine != build:
             self._build_scenery(*build)
         self._pristine = None
-        bodies = self._create_objects(objects, visuals=self._twin is None or visuals)
+        bodies = self._create_objects(objects, visuals=not self._twin_draws)
         n = self.pb.getNumBodies(physicsClientId=self.client)
         self._seg_lut = np.full(n + 2, -1, dtype=np.int16)  # entry 0: PyBullet's -1
         for i, body in enumerate(bodies):
             self._seg_lut[body + 1] = i
         self.bodies = tuple(bodies)
         self.objects = tuple(objects)
-        if self._twin is not None and not visuals:
+        if self._twin_draws:
+            assert self._twin is not None
             self._twin.assign(objects)
         return self.bodies
 
     def _use_client(self, scenery_visuals: bool) -> bool:
-        """Make the client an instance with(out) ``scenery_visuals`` runs in the current
-        one (see ``object_twin``); whether the scenery gets its visuals."""
+        """Switch :attr:`client` to the one an instance with(out) ``scenery_visuals``
+        runs in: the physics-only client where the twin draws it (``object_twin``), else
+        the world's own. Returns whether the scenery gets its visuals."""
         visuals = scenery_visuals or not self.lean_reset
         client = self._full_client
         if not visuals and self.object_twin:
