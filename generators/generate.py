@@ -111,11 +111,15 @@ _WORLDS: dict[tuple[int, int], Any] = {}
 
 
 def _world(image: tuple[int, int]) -> Any:
-    """This process's World for ``image`` (width, height): made once, reset per instance."""
+    """This process's World for ``image`` (width, height): made once, reset per instance.
+    The process keeps the memory its renders free for the next ones
+    (:func:`~nsrmp_bench.generators.world.heap.retain_freed_memory`)."""
     if image not in _WORLDS:
+        from nsrmp_bench.generators.world.heap import retain_freed_memory
         from nsrmp_bench.generators.world.world import World
         from nsrmp_bench.geometry.default_camera import official_camera
 
+        retain_freed_memory()
         _WORLDS[image] = World(official_camera(*image))
     return _WORLDS[image]
 

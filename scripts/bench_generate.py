@@ -2,6 +2,8 @@
 
     python scripts/bench_generate.py [--split paper-v2] [--part test] [--episodes 100]
                                      [--repeat 5] [--large 100] [--forked] [--breakdown]
+                                     [--original-tree DIR [--original-scenes 20]]
+                                     [--heap-default]
 
 (about 5 minutes with the defaults: each end-to-end run writes one whole shard of 100
 episodes, as the ``generate`` verb does, so the shard's fork and commit count as often as
@@ -34,14 +36,26 @@ Printed:
   verb's worker writes them (``make_episode`` into a ``ShardWriter``, committed: hashed,
   compressed, fsynced, renamed), and the ratio of that to generating alone (after);
 * 1024x768 (the original generator's image size): seconds per episode end to end, against
-  the original's 1.02 s per sample on one core of this machine
-  (``shared/reference/nsrm-original-datagen.md`` §7.4).
+  the original's 1.02 s per sample on one core of the machine issue 28 was filed on
+  (``shared/reference/nsrm-original-datagen.md`` §7.4) and, with ``--original-tree`` (a
+  checkout of ``dair-iitd/nsrmp`` at ``bf6ba54``), against the original measured here, in
+  the same alternation (``scripts/bench_original_generator.py``: ``--original-scenes``
+  scenes of SingleStep, 5 objects, simple, seed 0, pinned to one core; wall seconds per
+  sample with a demo.json).
+
+Like ``generate``'s workers, the process first keeps the memory its renders free for the
+next ones (:func:`~nsrmp_bench.generators.world.heap.retain_freed_memory`);
+``--heap-default`` leaves glibc's thresholds alone (the generator before that change).
 
 ``--breakdown`` first prints what one object body costs to create, per shape: with its
 visual shape in a client with a renderer (as the world made them before the twin) and
 without one in the physics-only client (as it makes them now); and what a 1024x768
 composite render costs copied into an episode's fresh arrays (as ``realise`` did) against
 written into them (``World.render(out=...)``, what it does now).
+
+``--breakdown`` then prints what an episode costs at 320x240 and 1024x768 with glibc's
+thresholds as they are against raised (CPU ms of ``make_episode`` and page faults per
+episode, each in a fresh process, alternating).
 
 ``--forked`` adds a third variant, "forked": ``World()`` primed once as a template and every
 instance made in a child forked from it (:func:`~nsrmp_bench.generators.world.template.
@@ -51,15 +65,20 @@ run_forked`), so that its ``begin`` reloads nothing. Its CPU time counts the chi
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import resource
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from nsrmp_bench.generators.generate import make_episode
+from nsrmp_bench.generators.world.heap import retain_freed_memory
 from nsrmp_bench.generators.world.template import run_forked
 from nsrmp_bench.generators.world.world import World
 from nsrmp_bench.geometry.default_camera import official_camera
@@ -223,6 +242,67 @@ def render_costs(spec: SplitSpec, part: str, rounds: int = 10) -> None:
     world.close()
 
 
+def heap_probe(mode: str, split: str, part: str, n: int, image: tuple[int, int]) -> None:
+    """Child of :func:`heap_costs`: print a JSON line of CPU ms and minor page faults per
+    ``make_episode`` at ``image`` (width, height) over instances ``0..n-1``, with glibc's
+    thresholds as they are (``mode`` "default") or raised ("retained")."""
+    if mode == "retained":
+        retain_freed_memory()
+    spec = load_split(split)
+    world = World(official_camera(*image))
+    for i in range(3):  # warm up: the cached background, the twin's pools
+        make_episode(spec, part, i, world)
+    faults = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    start = time.process_time()
+    for i in range(n):
+        make_episode(spec, part, i, world)
+    cpu = time.process_time() - start
+    faults = resource.getrusage(resource.RUSAGE_SELF).ru_minflt - faults
+    print(json.dumps({"cpu_ms": cpu / n * 1e3, "faults": faults / n}))
+
+
+def heap_costs(split: str, part: str, n: int = 40, rounds: int = 3) -> None:
+    """Print an episode's CPU ms and page faults at 320x240 and 1024x768 with glibc's
+    thresholds as they are against raised, each run a fresh process (the thresholds cannot
+    be put back)."""
+
+    def run(mode: str, image: tuple[int, int]) -> dict[str, float]:
+        out = subprocess.run(
+            [sys.executable, str(Path(__file__).resolve()), "--split", split, "--part", part,
+             "--heap-probe", mode, "--heap-image", f"{image[0]}x{image[1]}",
+             "--episodes", str(n)],
+            check=True, capture_output=True, text=True).stdout
+        result: dict[str, float] = json.loads(out.strip().splitlines()[-1])
+        return result
+
+    for image in ((320, 240), (1024, 768)):
+        runs = alternate(rounds, {"default": lambda image=image: run("default", image),
+                                  "retained": lambda image=image: run("retained", image)})
+        pairs = [r["cpu_ms"] / d["cpu_ms"]
+                 for d, r in zip(runs["default"], runs["retained"], strict=True)]
+
+        def fig(rows: list[dict[str, float]]) -> str:
+            return ", ".join(f"{med([r[k] for r in rows]):.1f}" for k in ("cpu_ms", "faults"))
+
+        print(f"{image[0]}x{image[1]} make_episode, {n} instances, CPU ms and minor page "
+              f"faults per episode (median of {rounds} alternating processes): glibc's "
+              f"thresholds as they are {fig(runs['default'])}; raised (retain_freed_memory) "
+              f"{fig(runs['retained'])} ({med(pairs):.2f}x the CPU pair by pair, "
+              f"{min(pairs):.2f}-{max(pairs):.2f})")
+
+
+def original_run(tree: Path, scenes: int) -> tuple[float, float]:
+    """(wall, CPU) seconds per sample of the original generator at 1024x768, measured here
+    (``scripts/bench_original_generator.py``, imported from beside this script)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    try:
+        from bench_original_generator import original_seconds_per_sample
+    finally:
+        sys.path.pop(0)
+    run = original_seconds_per_sample(tree, scenes=scenes, seed=0)
+    return run.seconds_per_sample, run.cpu_s / run.samples
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--split", default="paper-v2")
@@ -235,10 +315,27 @@ def main() -> None:
                         help="add the variant that makes every instance in a forked child")
     parser.add_argument("--breakdown", action="store_true",
                         help="first print what one object body costs, per shape")
+    parser.add_argument("--original-tree", type=Path, default=None,
+                        help="a checkout of dair-iitd/nsrmp (bf6ba54): also time the "
+                             "original generator at 1024x768 here")
+    parser.add_argument("--original-scenes", type=int, default=20,
+                        help="scenes per run of the original (up to 3 samples each)")
+    parser.add_argument("--heap-default", action="store_true",
+                        help="leave glibc's mmap and trim thresholds as they are")
+    parser.add_argument("--heap-probe", choices=("default", "retained"),
+                        help=argparse.SUPPRESS)
+    parser.add_argument("--heap-image", default="1024x768", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.heap_probe is not None:
+        width, height = (int(v) for v in args.heap_image.split("x"))
+        heap_probe(args.heap_probe, args.split, args.part, args.episodes, (width, height))
+        return
+    if not args.heap_default:
+        retain_freed_memory()
     if args.breakdown:
         body_costs()
         render_costs(load_split(args.split), args.part)
+        heap_costs(args.split, args.part)
     spec = load_split(args.split)
     part, n = args.part, args.episodes
     print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
@@ -303,16 +400,32 @@ def main() -> None:
             worlds["forked"].forked = True
         for t in worlds.values():
             t.episode(spec, part, 0)
-        large = alternate(max(1, args.repeat // 2), {
+        runs: dict[str, Callable[[], tuple[float, float]]] = {
             name: (lambda name=name, t=t: end_to_end(spec, part, args.large, t,
                                                      writer[name]))
-            for name, t in worlds.items()})
+            for name, t in worlds.items()}
+        if args.original_tree is not None:
+            runs["original"] = lambda: original_run(args.original_tree, args.original_scenes)
+        large = alternate(max(1, args.repeat // 2), runs)
         print(f"\n1024x768, end to end, {args.large} episodes per run:")
         for name, xs in large.items():
             wall, cpu = med([x[0] for x in xs]), med([x[1] for x in xs])
-            print(f"  {name:6s}: {wall:.3f} s wall, {cpu:.3f} s CPU per episode: "
-                  f"{ORIGINAL_S_PER_SAMPLE / wall:.1f}x / {ORIGINAL_S_PER_SAMPLE / cpu:.1f}x "
-                  f"faster than the original's {ORIGINAL_S_PER_SAMPLE} s per sample")
+            if name == "original":
+                print(f"  original, measured here ({args.original_scenes} scenes per run, "
+                      f"pinned to one core): {wall:.3f} s wall, {cpu:.3f} s CPU per sample")
+                continue
+            line = (f"  {name:6s}: {wall:.3f} s wall, {cpu:.3f} s CPU per episode: "
+                    f"{ORIGINAL_S_PER_SAMPLE / wall:.1f}x / {ORIGINAL_S_PER_SAMPLE / cpu:.1f}x "
+                    f"faster than the original's {ORIGINAL_S_PER_SAMPLE} s per sample")
+            if "original" in large:
+                here = [o[0] / x[0] for o, x in zip(large["original"], xs, strict=True)]
+                line += (f"; {med(here):.1f}x ({min(here):.1f}-{max(here):.1f}) the original "
+                         "measured here, wall, pair by pair")
+            if name != "after":
+                pairs = [a[0] / x[0] for a, x in zip(large["after"], xs, strict=True)]
+                line += (f"; its speed against after's {med(pairs):.2f}x "
+                         f"({min(pairs):.2f}-{max(pairs):.2f}), wall, pair by pair")
+            print(line)
     print(f"\nload average at end: {os.getloadavg()[0]:.2f}")
 
 

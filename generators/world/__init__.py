@@ -10,6 +10,8 @@ Modules (import them by name; this package imports nothing heavy on its own):
   settling; TinyRenderer renders;
 * :mod:`.object_twin`: the physics-only client of lean instances and the render twin
   that draws their objects (a pool of bodies per shape, never reset);
+* :mod:`.heap`: :func:`~.heap.retain_freed_memory`, which keeps the memory large renders
+  free in the C heap for the next ones (what ``generate``'s workers do);
 * :mod:`.targets`: amodal and visible boxes, visible fractions, centre depths;
 * :mod:`.realise`: :func:`~.realise.realise`, the execution of a symbolic episode with
   typed rejections (:class:`~.realise.PhysicsRejection`), each step carried out by a
