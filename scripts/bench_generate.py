@@ -65,6 +65,7 @@ run_forked`), so that its ``begin`` reloads nothing. Its CPU time counts the chi
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import resource
@@ -273,8 +274,8 @@ def heap_costs(split: str, part: str, n: int = 40, rounds: int = 3) -> None:
         return result
 
     for image in ((320, 240), (1024, 768)):
-        runs = alternate(rounds, {"default": lambda image=image: run("default", image),
-                                  "retained": lambda image=image: run("retained", image)})
+        runs = alternate(rounds, {mode: functools.partial(run, mode, image)
+                                  for mode in ("default", "retained")})
         pairs = [r["cpu_ms"] / d["cpu_ms"]
                  for d, r in zip(runs["default"], runs["retained"], strict=True)]
 
