@@ -66,6 +66,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import importlib.metadata
 import json
 import os
 import resource
@@ -336,7 +337,9 @@ def main() -> None:
         heap_costs(args.split, args.part)
     spec = load_split(args.split)
     part, n = args.part, args.episodes
-    print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
+    print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores); "
+          f"pybullet {importlib.metadata.version('pybullet')} "
+          "(3.2.7+nsrmp.1: the patched build of scripts/build_pybullet.py)")
     cam = official_camera(*spec.image)
     timed = {"before": TimedWorld(World(cam, lean_reset=False)),
              "lean": TimedWorld(World(cam, object_twin=False)),

