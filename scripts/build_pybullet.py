@@ -16,7 +16,8 @@ work and nothing else:
 Every committed v2 part regenerates bit for bit with the patched build (README). The
 script downloads the pinned sdist from the package registry (or takes ``--sdist``), checks
 its sha256, applies the patches, and builds a wheel versioned ``3.2.7+nsrmp.1`` with this
-interpreter's numpy (about 5 minutes on 2 cores)::
+interpreter's numpy (about 5 minutes on 2 cores; POSIX: the pool patch uses
+``posix_memalign``)::
 
     python scripts/build_pybullet.py --install
 
