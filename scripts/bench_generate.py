@@ -337,9 +337,10 @@ def main() -> None:
         heap_costs(args.split, args.part)
     spec = load_split(args.split)
     part, n = args.part, args.episodes
+    pybullet = importlib.metadata.version("pybullet")
+    patched = " (the patched build of scripts/build_pybullet.py)" if "+nsrmp" in pybullet else ""
     print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores); "
-          f"pybullet {importlib.metadata.version('pybullet')} "
-          "(3.2.7+nsrmp.1: the patched build of scripts/build_pybullet.py)")
+          f"pybullet {pybullet}{patched}")
     cam = official_camera(*spec.image)
     timed = {"before": TimedWorld(World(cam, lean_reset=False)),
              "lean": TimedWorld(World(cam, object_twin=False)),

@@ -10,8 +10,9 @@ work and nothing else:
 - ``0001``: a pool hands each element out zeroed and linked, as its eager constructor left
   it, but zeroes it when it is first handed out instead of all of them up front;
 - ``0002``: an aligned block is zeroed once, not twice (the same zero bytes handed out);
-- ``0003``: the client keeps a (file DNA, memory DNA) pair it parsed and reuses it while
-  both buffers hold the same bytes at the same addresses (checked byte for byte each time).
+- ``0003``: the client keeps a (file DNA, memory DNA) pair it parsed, from its own copies
+  of the bytes, and reuses it while both buffers hold the same bytes (compared in full);
+- ``0004``: the server's serializer parses each memory DNA once per process.
 
 Every committed v2 part regenerates bit for bit with the patched build (README). The
 script downloads the pinned sdist from the package registry (or takes ``--sdist``), checks
@@ -28,7 +29,6 @@ pybullet==3.2.7`` goes back. Manifests record the version in use.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import importlib.util
 import shutil
 import subprocess
@@ -36,6 +36,8 @@ import sys
 import tarfile
 import tempfile
 from pathlib import Path
+
+from nsrmp_bench.canonical import sha256_file
 
 PATCHES = Path(__file__).resolve().parent / "pybullet"
 VERSION = "3.2.7"
@@ -47,14 +49,6 @@ SDIST_SHA256 = "042879db8d101ac7590dee475fc6aded508b85fe1273fdbbfde1d88bd200e14f
 
 class BuildError(RuntimeError):
     """A step of the build failed; the message names it and what to do."""
-
-
-def sha256_of(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def fetch_sdist(dest: Path) -> Path:
@@ -76,7 +70,7 @@ def check_sdist(path: Path) -> None:
     if not path.is_file():
         msg = f"--sdist {path} does not exist; pass the path of {SDIST}"
         raise BuildError(msg)
-    actual = sha256_of(path)
+    actual = sha256_file(path)
     if actual != SDIST_SHA256:
         msg = (f"{path} has sha256 {actual}, but the patches are made for {SDIST} with "
                f"sha256 {SDIST_SHA256}; pass that file (or leave --sdist out to download it)")

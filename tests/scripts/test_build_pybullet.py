@@ -9,7 +9,6 @@ every committed part with it (README, "Generation speed").
 from __future__ import annotations
 
 import difflib
-import importlib.util
 import io
 import subprocess
 import sys
@@ -18,18 +17,14 @@ from pathlib import Path
 from types import ModuleType
 
 import pytest
+from script_module import SCRIPTS, load_script
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "build_pybullet.py"
+SCRIPT = SCRIPTS / "build_pybullet.py"
 
 
 @pytest.fixture(scope="module")
 def bp() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("build_pybullet", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["build_pybullet"] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_script("build_pybullet")
 
 
 @pytest.fixture(scope="module")
