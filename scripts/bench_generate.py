@@ -60,6 +60,13 @@ episode, each in a fresh process, alternating).
 ``--forked`` adds a third variant, "forked": ``World()`` primed once as a template and every
 instance made in a child forked from it (:func:`~nsrmp_bench.generators.world.template.
 run_forked`), so that its ``begin`` reloads nothing. Its CPU time counts the children's.
+
+``--writer`` prints only what the writer process does per episode (it runs the synchronous
+writer, the code the process runs): CPU ms of writing ``--episodes`` instances made
+beforehand into a committed shard, and within it the episode's SHA-256 and the DEFLATE of
+its images (Python's ``zlib``, level 1, shuffled floats, as HDF5's filters), medians of
+``--repeat`` runs, at the part's image size and (``--large`` > 0) at 1024x768 for
+``--large`` instances.
 """
 
 from __future__ import annotations
@@ -75,9 +82,12 @@ import subprocess
 import sys
 import tempfile
 import time
+import zlib
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from nsrmp_bench.generators.generate import make_episode
 from nsrmp_bench.generators.world.heap import retain_freed_memory
@@ -85,6 +95,8 @@ from nsrmp_bench.generators.world.template import run_forked
 from nsrmp_bench.generators.world.world import World
 from nsrmp_bench.geometry.default_camera import official_camera
 from nsrmp_bench.split_specs import SplitSpec, load_split
+from nsrmp_bench.storage.arrays import episode_arrays
+from nsrmp_bench.storage.hashing import episode_hash
 from nsrmp_bench.storage.writer import Background, ShardWriter
 
 ORIGINAL_S_PER_SAMPLE = 1.02
@@ -302,6 +314,48 @@ def original_run(tree: Path, scenes: int) -> tuple[float, float]:
     return run.seconds_per_sample, run.cpu_s / run.samples
 
 
+def writer_costs(spec: SplitSpec, part: str, n: int, repeat: int,
+                 image: tuple[int, int]) -> None:
+    """Print the synchronous writer's CPU ms per episode and its hash and DEFLATE parts."""
+    world = World(official_camera(*image))
+    episodes = [make_episode(spec, part, i, world) for i in range(n)]
+
+    def write() -> float:
+        with tempfile.TemporaryDirectory(prefix="bench-writer-") as out:
+            start = time.process_time()
+            with ShardWriter(out, 0, n, split=f"{spec.id}/{part}", background=False) as w:
+                for episode in episodes:
+                    w.add(episode)
+                w.commit()
+            return (time.process_time() - start) / n * 1e3
+
+    def hashing() -> float:
+        start = time.process_time()
+        for episode in episodes:
+            episode_hash(episode)
+        return (time.process_time() - start) / n * 1e3
+
+    def deflate() -> float:
+        start = time.process_time()
+        for episode in episodes:
+            for key, arr in episode_arrays(episode).items():
+                if not key.startswith("observations/"):
+                    continue
+                for img in arr:
+                    shuffled = img.dtype.kind == "f"
+                    raw = (img.view(np.uint8).reshape(img.size, img.itemsize).T.tobytes()
+                           if shuffled else img.tobytes())
+                    zlib.compress(raw, 1)
+        return (time.process_time() - start) / n * 1e3
+
+    rows = alternate(repeat, {"write": write, "hash": hashing, "deflate": deflate})
+    total, sha, comp = (med(rows[k]) for k in ("write", "hash", "deflate"))
+    print(f"writer, {spec.id}/{part}, {n} episodes at {image[0]}x{image[1]}, CPU ms per "
+          f"episode, medians of {repeat}: {total:.1f} in all; SHA-256 {sha:.1f}, DEFLATE of "
+          f"the images {comp:.1f}, the rest (HDF5 objects, flush, commit) "
+          f"{total - sha - comp:.1f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--split", default="paper-v2")
@@ -319,6 +373,8 @@ def main() -> None:
                              "original generator at 1024x768 here")
     parser.add_argument("--original-scenes", type=int, default=20,
                         help="scenes per run of the original (up to 3 samples each)")
+    parser.add_argument("--writer", action="store_true",
+                        help="only print what the writer process does per episode")
     parser.add_argument("--heap-default", action="store_true",
                         help="leave glibc's mmap and trim thresholds as they are")
     parser.add_argument("--heap-probe", choices=("default", "retained"),
@@ -331,6 +387,12 @@ def main() -> None:
         return
     if not args.heap_default:
         retain_freed_memory()
+    if args.writer:
+        spec = load_split(args.split)
+        writer_costs(spec, args.part, args.episodes, args.repeat, spec.image)
+        if args.large > 0:
+            writer_costs(spec, args.part, args.large, max(1, args.repeat // 2), (1024, 768))
+        return
     if args.breakdown:
         body_costs()
         render_costs(load_split(args.split), args.part)

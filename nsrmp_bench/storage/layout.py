@@ -47,6 +47,7 @@ import h5py
 import numpy as np
 
 from nsrmp_bench.errors import InvalidArgument, SchemaVersionError
+from nsrmp_bench.storage import h5_objects
 
 __all__ = [
     "ARRAY_SPECS",
@@ -196,7 +197,4 @@ def small_codec() -> dict[str, Any]:
 
 def create_group(parent: h5py.Group, name: str) -> h5py.Group:
     """Create a group without creation/modification times (byte-deterministic files)."""
-    gcpl = h5py.h5p.create(h5py.h5p.GROUP_CREATE)
-    gcpl.set_obj_track_times(False)
-    gid = h5py.h5g.create(parent.id, name.encode("utf-8"), gcpl=gcpl)
-    return h5py.Group(gid)
+    return h5py.Group(h5_objects.group(parent.id, name))

@@ -49,6 +49,7 @@ from nsrmp_bench.canonical import canonical_json, sha256_file
 from nsrmp_bench.dsl.program import load_signatures
 from nsrmp_bench.episode import SCHEMA_VERSION, Episode
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.storage import h5_objects
 from nsrmp_bench.storage.arrays import episode_arrays
 from nsrmp_bench.storage.handover import Handover
 from nsrmp_bench.storage.hashing import episode_hash
@@ -72,15 +73,7 @@ Background = bool | Literal["thread", "process"]
 """How a :class:`ShardWriter` writes: ``False`` in :meth:`ShardWriter.add`, ``True`` or
 ``"thread"`` on a writer thread, ``"process"`` in a forked child."""
 
-_STR = h5py.string_dtype("utf-8")
-
-
-def _put_string(group: h5py.Group, name: str, text: str) -> None:
-    group.create_dataset(name, data=np.array(text, dtype=_STR), dtype=_STR, track_times=False)
-
-
-def _put_array(group: h5py.Group, name: str, arr: NDArray[Any], kw: Mapping[str, Any]) -> None:
-    group.create_dataset(name, data=arr, track_times=False, **kw)
+_STR = h5_objects.STRING
 
 
 def _filtered_chunk(chunk: NDArray[Any], kw: Mapping[str, Any]) -> bytes:
@@ -95,59 +88,62 @@ def _filtered_chunk(chunk: NDArray[Any], kw: Mapping[str, Any]) -> bytes:
     return zlib.compress(raw, int(kw["compression_opts"]))
 
 
-def _put_image(group: h5py.Group, name: str, arr: NDArray[Any], kw: Mapping[str, Any],
+def _put_image(group: Any, name: str, arr: NDArray[Any], kw: Mapping[str, Any],
                direct: bool) -> None:
     """An :func:`image_codec` dataset, compressed by HDF5 or (``direct``) chunk by chunk
     here, with the same filters and so the same bytes."""
     if not direct or kw.get("compression") != "gzip":
-        _put_array(group, name, arr, kw)
+        h5_objects.dataset(group, name, arr, kw)
         return
-    ds = group.create_dataset(name, shape=arr.shape, dtype=arr.dtype, track_times=False, **kw)
     chunks = tuple(kw["chunks"])
-    if chunks == arr.shape:
-        ds.id.write_direct_chunk((0,) * arr.ndim, _filtered_chunk(arr, kw))
-        return
-    if chunks != (1, *arr.shape[1:]):
+    if chunks != arr.shape and chunks != (1, *arr.shape[1:]):
         msg = f"direct chunk writes take one image or one image per chunk, got chunks {chunks}"
         raise InvalidArgument(msg)
+    ds = h5_objects.empty_dataset(group, name, arr.shape, arr.dtype, kw)
+    if chunks == arr.shape:
+        ds.write_direct_chunk((0,) * arr.ndim, _filtered_chunk(arr, kw))
+        return
     for k in range(arr.shape[0]):
-        ds.id.write_direct_chunk((k,) + (0,) * (arr.ndim - 1), _filtered_chunk(arr[k:k + 1], kw))
+        ds.write_direct_chunk((k,) + (0,) * (arr.ndim - 1), _filtered_chunk(arr[k:k + 1], kw))
 
 
 def write_episode_group(parent: h5py.Group, episode: Episode, index: int, ehash: str, *,
                         direct_chunks: bool = False) -> None:
     """Write one episode as ``parent/<id>`` in the layout of :mod:`~nsrmp_bench.storage.layout`.
 
+    The groups, datasets and attributes are made through :mod:`~nsrmp_bench.storage.
+    h5_objects` (h5py's low-level calls, the same bytes as its high-level ones).
     ``direct_chunks`` compresses the images here rather than in HDF5 (same bytes; Python's
     zlib runs without the GIL, so another thread can work meanwhile)."""
     sym = episode.symbolic
     arrays = episode_arrays(episode)
-    g = create_group(parent, check_episode_id(sym.id))
-    g.attrs["id"] = sym.id
-    g.attrs["index"] = np.int64(index)
-    g.attrs["content_hash"] = ehash
-    g.attrs["num_steps"] = np.int64(sym.num_steps)
-    g.attrs["num_objects"] = np.int64(sym.num_objects)
-    g.attrs["seed"] = canonical_json(sym.seed.to_dict())
-    g.attrs["generator"] = sym.generator
+    g = h5_objects.group(parent.id, check_episode_id(sym.id))
+    put = h5_objects.attribute
+    put(g, "id", sym.id)
+    put(g, "index", np.int64(index))
+    put(g, "content_hash", ehash)
+    put(g, "num_steps", np.int64(sym.num_steps))
+    put(g, "num_objects", np.int64(sym.num_objects))
+    put(g, "seed", canonical_json(sym.seed.to_dict()))
+    put(g, "generator", sym.generator)
     r = episode.rendering
-    g.attrs["has_rendering"] = np.bool_(r is not None)
-    g.attrs["has_images"] = np.bool_("observations/rgb" in arrays)
+    put(g, "has_rendering", np.bool_(r is not None))
+    put(g, "has_images", np.bool_("observations/rgb" in arrays))
     if r is not None:
-        g.attrs["camera"] = canonical_json(r.camera.to_dict())
-        g.attrs["executor"] = r.executor
+        put(g, "camera", canonical_json(r.camera.to_dict()))
+        put(g, "executor", r.executor)
         # a dataset, not an attribute: robot executors can record more than 64 KiB
-        _put_string(g, "physics", canonical_json(r.physics))
+        h5_objects.string_dataset(g, "physics", canonical_json(r.physics))
 
-    inputs = create_group(g, "inputs")
-    _put_string(inputs, "instruction", sym.instruction.text)
-    targets = create_group(g, "targets")
-    _put_string(targets, "symbolic", canonical_json(sym.to_dict()))
-    _put_string(targets, "program", sym.program.text())
+    inputs = h5_objects.group(g, "inputs")
+    h5_objects.string_dataset(inputs, "instruction", sym.instruction.text)
+    targets = h5_objects.group(g, "targets")
+    h5_objects.string_dataset(targets, "symbolic", canonical_json(sym.to_dict()))
+    h5_objects.string_dataset(targets, "program", sym.program.text())
 
     if "observations/rgb" in arrays:
-        in_obs = create_group(inputs, "obs")
-        tg_obs = create_group(targets, "obs")
+        in_obs = h5_objects.group(inputs, "obs")
+        tg_obs = h5_objects.group(targets, "obs")
         for key in ("rgb", "depth"):
             arr = arrays[f"observations/{key}"]
             first, later = arr[0], arr[1:]
@@ -160,15 +156,15 @@ def write_episode_group(parent: h5py.Group, episode: Episode, index: int, ehash:
                    direct_chunks)
     if r is not None:
         for key in ("boxes_amodal", "boxes_visible"):
-            _put_array(inputs, key, arrays[f"targets/{key}"][0], small_codec())
+            h5_objects.dataset(inputs, key, arrays[f"targets/{key}"][0], small_codec())
         for key in ("poses", "boxes_amodal", "boxes_visible", "visible_fraction",
                     "depth_centre"):
-            _put_array(targets, key, arrays[f"targets/{key}"], small_codec())
+            h5_objects.dataset(targets, key, arrays[f"targets/{key}"], small_codec())
         if r.trajectory is not None:
-            robot = create_group(targets, "robot")
-            robot.attrs["joint_names"] = canonical_json(list(r.trajectory.joint_names))
+            robot = h5_objects.group(targets, "robot")
+            put(robot, "joint_names", canonical_json(list(r.trajectory.joint_names)))
             for key in ("time", "joint_positions", "ee_pose", "gripper", "step"):
-                _put_array(robot, key, arrays[f"trajectory/{key}"], small_codec())
+                h5_objects.dataset(robot, key, arrays[f"trajectory/{key}"], small_codec())
 
 
 class ShardWriter:
@@ -350,8 +346,8 @@ class ShardWriter:
         group.create_dataset(parts[-1] if parts else "all", data=ids, dtype=_STR,
                              track_times=False)
         rows = [{"id": e.id, "index": e.index, **e.categories} for e in self._entries]
-        _put_string(f, "index", json.dumps(rows, sort_keys=True, separators=(",", ":"),
-                                           allow_nan=False))
+        index = json.dumps(rows, sort_keys=True, separators=(",", ":"), allow_nan=False)
+        h5_objects.string_dataset(f.id, "index", index)
         f.close()
         self._f = None
         with open(self.tmp_path, "rb+") as fh:
