@@ -82,12 +82,9 @@ import subprocess
 import sys
 import tempfile
 import time
-import zlib
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from nsrmp_bench.generators.generate import make_episode
 from nsrmp_bench.generators.world.heap import retain_freed_memory
@@ -97,7 +94,8 @@ from nsrmp_bench.geometry.default_camera import official_camera
 from nsrmp_bench.split_specs import SplitSpec, load_split
 from nsrmp_bench.storage.arrays import episode_arrays
 from nsrmp_bench.storage.hashing import episode_hash
-from nsrmp_bench.storage.writer import Background, ShardWriter
+from nsrmp_bench.storage.layout import image_codec
+from nsrmp_bench.storage.writer import Background, ShardWriter, filtered_chunk
 
 ORIGINAL_S_PER_SAMPLE = 1.02
 """The original generator, 1024x768, one core of this machine (see the module doc)."""
@@ -342,10 +340,7 @@ def writer_costs(spec: SplitSpec, part: str, n: int, repeat: int,
                 if not key.startswith("observations/"):
                     continue
                 for img in arr:
-                    shuffled = img.dtype.kind == "f"
-                    raw = (img.view(np.uint8).reshape(img.size, img.itemsize).T.tobytes()
-                           if shuffled else img.tobytes())
-                    zlib.compress(raw, 1)
+                    filtered_chunk(img, image_codec(img.shape, img.dtype, stacked=False))
         return (time.process_time() - start) / n * 1e3
 
     rows = alternate(repeat, {"write": write, "hash": hashing, "deflate": deflate})

@@ -67,16 +67,14 @@ from nsrmp_bench.storage.records import EpisodeEntry, ShardRecord, fsync_dir
 from nsrmp_bench.storage.tolerance import tolerant_summary
 from nsrmp_bench.vocabulary import vocabulary_dict
 
-__all__ = ["Background", "ShardWriter", "write_episode_group", "write_shard", "writer_mode"]
+__all__ = ["Background", "ShardWriter", "filtered_chunk", "write_episode_group", "write_shard",
+           "writer_mode"]
 
 Background = bool | Literal["thread", "process"]
 """How a :class:`ShardWriter` writes: ``False`` in :meth:`ShardWriter.add`, ``True`` or
 ``"thread"`` on a writer thread, ``"process"`` in a forked child."""
 
-_STR = h5_objects.STRING
-
-
-def _filtered_chunk(chunk: NDArray[Any], kw: Mapping[str, Any]) -> bytes:
+def filtered_chunk(chunk: NDArray[Any], kw: Mapping[str, Any]) -> bytes:
     """``chunk`` through the filter pipeline of an :func:`image_codec` dataset: byte
     shuffle (when ``kw["shuffle"]``), then DEFLATE at ``kw["compression_opts"]``, as
     HDF5's H5Z_SHUFFLE and H5Z_DEFLATE (``compress2``) do."""
@@ -101,10 +99,10 @@ def _put_image(group: Any, name: str, arr: NDArray[Any], kw: Mapping[str, Any],
         raise InvalidArgument(msg)
     ds = h5_objects.empty_dataset(group, name, arr.shape, arr.dtype, kw)
     if chunks == arr.shape:
-        ds.write_direct_chunk((0,) * arr.ndim, _filtered_chunk(arr, kw))
+        ds.write_direct_chunk((0,) * arr.ndim, filtered_chunk(arr, kw))
         return
     for k in range(arr.shape[0]):
-        ds.write_direct_chunk((k,) + (0,) * (arr.ndim - 1), _filtered_chunk(arr[k:k + 1], kw))
+        ds.write_direct_chunk((k,) + (0,) * (arr.ndim - 1), filtered_chunk(arr[k:k + 1], kw))
 
 
 def write_episode_group(parent: h5py.Group, episode: Episode, index: int, ehash: str, *,
@@ -342,8 +340,8 @@ class ShardWriter:
         group = create_group(f, "mask")
         for part in parts[:-1]:
             group = create_group(group, part)
-        ids = np.array([e.id for e in self._entries], dtype=_STR)
-        group.create_dataset(parts[-1] if parts else "all", data=ids, dtype=_STR,
+        ids = np.array([e.id for e in self._entries], dtype=h5_objects.STRING)
+        group.create_dataset(parts[-1] if parts else "all", data=ids, dtype=h5_objects.STRING,
                              track_times=False)
         rows = [{"id": e.id, "index": e.index, **e.categories} for e in self._entries]
         index = json.dumps(rows, sort_keys=True, separators=(",", ":"), allow_nan=False)
