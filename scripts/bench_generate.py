@@ -3,7 +3,8 @@
     python scripts/bench_generate.py [--split paper-v2] [--part test] [--episodes 100]
                                      [--repeat 5] [--large 100] [--forked] [--breakdown]
                                      [--original-tree DIR [--original-scenes 20]]
-                                     [--heap-default]
+                                     [--heap-default] [--writer [--large N]]
+                                     [--writer-ablation [--large N]]
 
 (about 5 minutes with the defaults: each end-to-end run writes one whole shard of 100
 episodes, as the ``generate`` verb does, so the shard's fork and commit count as often as
@@ -67,6 +68,14 @@ beforehand into a committed shard, and within it the episode's SHA-256 and the D
 its images (Python's ``zlib``, level 1, shuffled floats, as HDF5's filters), medians of
 ``--repeat`` runs, at the part's image size and (``--large`` > 0) at 1024x768 for
 ``--large`` instances.
+
+``--writer-ablation`` times only one worker end to end with the writer process, three
+ways alternating, and generating alone: as shipped (the writer compresses the image chunks
+with Python's ``zlib`` and stores them as they are, and while it lags the generator
+compresses chunks of the episode it hands over rather than wait, :func:`~nsrmp_bench.
+storage.chunks.precompress`); without the generator's share; and with HDF5's own filter
+compressing in the writer (both changes undone: the writer of ``d6037cd``), ``--repeat``
+runs of ``--episodes`` instances at the part's image size, or ``--large`` at 1024x768.
 """
 
 from __future__ import annotations
@@ -92,10 +101,14 @@ from nsrmp_bench.generators.world.template import run_forked
 from nsrmp_bench.generators.world.world import World
 from nsrmp_bench.geometry.default_camera import official_camera
 from nsrmp_bench.split_specs import SplitSpec, load_split
+from nsrmp_bench.storage import h5_objects
+from nsrmp_bench.storage import writer as writer_module
 from nsrmp_bench.storage.arrays import episode_arrays
+from nsrmp_bench.storage.chunks import filtered_chunk
+from nsrmp_bench.storage.handover import Handover
 from nsrmp_bench.storage.hashing import episode_hash
 from nsrmp_bench.storage.layout import image_codec
-from nsrmp_bench.storage.writer import Background, ShardWriter, filtered_chunk
+from nsrmp_bench.storage.writer import Background, ShardWriter
 
 ORIGINAL_S_PER_SAMPLE = 1.02
 """The original generator, 1024x768, one core of this machine (see the module doc)."""
@@ -351,6 +364,52 @@ def writer_costs(spec: SplitSpec, part: str, n: int, repeat: int,
           f"{total - sha - comp:.1f}")
 
 
+def writer_ablation(spec: SplitSpec, part: str, n: int, repeat: int,
+                    image: tuple[int, int]) -> None:
+    """One worker end to end with the writer process three ways, alternating: as shipped
+    (chunks compressed by the writer with Python's zlib, and by the generator while the
+    writer lags), without the generator's share, and with HDF5's filter compressing in
+    the writer (the writer before either change); and generating alone."""
+    timed = TimedWorld(World(official_camera(*image)))
+    timed.episode(spec, part, 0)
+    free, put = Handover.free, writer_module._put_image
+
+    def hdf5_filter(group: Any, path: str, name: str, arr: Any, kw: Any, _: Any) -> None:
+        h5_objects.dataset(group, name, arr, kw)
+
+    def variant(share: bool, python_zlib: bool) -> Callable[[], tuple[float, float]]:
+        def run() -> tuple[float, float]:
+            Handover.free = free if share else lambda self: True  # type: ignore[method-assign]
+            writer_module._put_image = put if python_zlib else hdf5_filter
+            try:
+                return end_to_end(spec, part, n, timed, "process")
+            finally:
+                Handover.free, writer_module._put_image = free, put  # type: ignore[method-assign]
+        return run
+
+    def alone() -> tuple[float, float]:
+        wall = time.perf_counter()
+        cpu_ms = generate_only(spec, part, n, timed)[0]
+        return (time.perf_counter() - wall) / n, cpu_ms / 1e3
+
+    rows = alternate(repeat, {"shipped": variant(True, True),
+                              "writer compresses alone": variant(False, True),
+                              "HDF5's filter, writer alone": variant(False, False),
+                              "generate only": alone})
+    print(f"writer process, {spec.id}/{part}, {n} episodes at {image[0]}x{image[1]}, wall ms "
+          f"per episode, medians of {repeat} alternating runs:")
+    for name, xs in rows.items():
+        line = f"  {name:28s} {med([x[0] for x in xs]) * 1e3:6.1f}"
+        if name not in ("shipped", "generate only"):
+            pairs = [b[0] / a[0] for a, b in zip(rows["shipped"], xs, strict=True)]
+            line += (f"; shipped's speed against it {med(pairs):.3f}x "
+                     f"({min(pairs):.3f}-{max(pairs):.3f}), pair by pair")
+        print(line)
+    for name in ("shipped", "HDF5's filter, writer alone"):
+        ratio = [g[0] / a[0] for a, g in zip(rows[name], rows["generate only"], strict=True)]
+        print(f"  end to end / generate only, {name}: {med(ratio):.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--split", default="paper-v2")
@@ -370,6 +429,9 @@ def main() -> None:
                         help="scenes per run of the original (up to 3 samples each)")
     parser.add_argument("--writer", action="store_true",
                         help="only print what the writer process does per episode")
+    parser.add_argument("--writer-ablation", action="store_true",
+                        help="only time the writer process with and without its two "
+                             "compression changes, end to end (with --large: 1024x768)")
     parser.add_argument("--heap-default", action="store_true",
                         help="leave glibc's mmap and trim thresholds as they are")
     parser.add_argument("--heap-probe", choices=("default", "retained"),
@@ -387,6 +449,13 @@ def main() -> None:
         writer_costs(spec, args.part, args.episodes, args.repeat, spec.image)
         if args.large > 0:
             writer_costs(spec, args.part, args.large, max(1, args.repeat // 2), (1024, 768))
+        return
+    if args.writer_ablation:
+        spec = load_split(args.split)
+        if args.large > 0:
+            writer_ablation(spec, args.part, args.large, args.repeat, (1024, 768))
+        else:
+            writer_ablation(spec, args.part, args.episodes, args.repeat, spec.image)
         return
     if args.breakdown:
         body_costs()
@@ -419,7 +488,7 @@ def main() -> None:
         begin = med([r[1] for r in rows])
         share = med([r[1] / r[0] for r in rows])
         print(f"  {name:6s}: make_episode {ep:6.1f} ms, World.begin {begin:5.1f} ms "
-              f"= {share:.0%} of an episode")
+              f"= {share:.1%} of an episode")
 
     def generate_alone() -> tuple[float, float]:
         wall = time.perf_counter()

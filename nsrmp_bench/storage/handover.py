@@ -93,6 +93,14 @@ class Handover:
         self._next += 1
         return slot, meta, spans
 
+    def free(self) -> bool:
+        """Whether a slot is free now, so that :meth:`pack` would not wait (the parent;
+        only it takes slots, so a free one stays free until it packs)."""
+        if self._free.acquire(block=False):
+            self._free.release()
+            return True
+        return False
+
     def unpack(self, packed: Packed) -> Any:
         """The object :meth:`pack` packed; its large arrays are views of the slot (read-only
         when the packed ones were), valid until :meth:`release`."""

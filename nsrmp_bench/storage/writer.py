@@ -5,12 +5,15 @@ episode, and on :meth:`ShardWriter.commit` closes, fsyncs, renames the file to i
 name and then writes its record (``.record.json``). A killed writer leaves only ``*.tmp``
 files, which :func:`~nsrmp_bench.storage.resume.scan_output` removes.
 
+Every writer compresses the image chunks itself with Python's ``zlib`` and stores them
+with ``write_direct_chunk`` (:mod:`~nsrmp_bench.storage.chunks`): the filters HDF5 would
+apply (byte shuffle for float images, then DEFLATE level 1), so the same bytes on disk,
+which ``tests/storage`` checks against the committed shards; it costs less CPU than
+HDF5's filter called through h5py (a quarter less at 320x240), and zlib lets go of the
+GIL.
+
 With ``background=True`` (the default) hashing, compressing and writing run on one writer
-thread, in the order episodes were added, while the caller makes the next episode. The
-image chunks are then compressed by Python's ``zlib`` (which lets go of the GIL, unlike
-HDF5's own filter called through h5py) and stored with ``write_direct_chunk``: the same
-filters (byte shuffle for float images, then DEFLATE level 1, the same libz), so the same
-bytes on disk, which ``tests/storage`` checks against the synchronous writer.
+thread, in the order episodes were added, while the caller makes the next episode.
 
 A thread still shares the GIL with its caller, and PyBullet holds the GIL through each of
 its calls: a generator that spends most of its time in PyBullet leaves the writer thread
@@ -18,7 +21,11 @@ little room (measured: one worker wrote 27 episodes/s where it generated 57 alon
 ``background="process"`` writes in a child process forked for the shard instead (the
 synchronous writer's code, so the same bytes): the caller only hands each episode over,
 its image arrays through shared memory (:mod:`~nsrmp_bench.storage.handover`) and the
-rest over a pipe. The child ends with the shard: it commits when told, and aborts
+rest over a pipe. When the child lags (both slots hold episodes it has not written yet),
+the caller does not just wait: it compresses the image chunks of the episode it is
+handing over until a slot is free (:func:`~nsrmp_bench.storage.chunks.precompress`), and
+the child stores those as they are, so the work is shared between the two cores. The
+child ends with the shard: it commits when told, and aborts
 (removes the ``.tmp``) when told to or when the caller's end of the pipe closes (the
 caller died). A daemonic process (a Dask worker) cannot have children; there it is a
 thread (:func:`writer_mode`).
@@ -33,7 +40,6 @@ import os
 import queue
 import signal
 import threading
-import zlib
 from collections.abc import Callable, Mapping
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -51,6 +57,13 @@ from nsrmp_bench.episode import SCHEMA_VERSION, Episode
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage import h5_objects
 from nsrmp_bench.storage.arrays import episode_arrays
+from nsrmp_bench.storage.chunks import (
+    Compressed,
+    filtered_chunk,
+    image_chunks,
+    image_datasets,
+    precompress,
+)
 from nsrmp_bench.storage.handover import Handover
 from nsrmp_bench.storage.hashing import episode_hash
 from nsrmp_bench.storage.layout import (
@@ -59,7 +72,6 @@ from nsrmp_bench.storage.layout import (
     TMP_SUFFIX,
     check_episode_id,
     create_group,
-    image_codec,
     shard_filename,
     small_codec,
 )
@@ -67,52 +79,40 @@ from nsrmp_bench.storage.records import EpisodeEntry, ShardRecord, fsync_dir
 from nsrmp_bench.storage.tolerance import tolerant_summary
 from nsrmp_bench.vocabulary import vocabulary_dict
 
-__all__ = ["Background", "ShardWriter", "filtered_chunk", "write_episode_group", "write_shard",
-           "writer_mode"]
+__all__ = ["Background", "ShardWriter", "write_episode_group", "write_shard", "writer_mode"]
 
 Background = bool | Literal["thread", "process"]
 """How a :class:`ShardWriter` writes: ``False`` in :meth:`ShardWriter.add`, ``True`` or
 ``"thread"`` on a writer thread, ``"process"`` in a forked child."""
 
-def filtered_chunk(chunk: NDArray[Any], kw: Mapping[str, Any]) -> bytes:
-    """``chunk`` through the filter pipeline of an :func:`image_codec` dataset: byte
-    shuffle (when ``kw["shuffle"]``), then DEFLATE at ``kw["compression_opts"]``, as
-    HDF5's H5Z_SHUFFLE and H5Z_DEFLATE (``compress2``) do."""
-    data = np.ascontiguousarray(chunk)
-    if kw.get("shuffle") and data.size > 1:
-        raw = data.view(np.uint8).reshape(data.size, data.dtype.itemsize).T.tobytes()
-    else:
-        raw = data.tobytes()
-    return zlib.compress(raw, int(kw["compression_opts"]))
-
-
-def _put_image(group: Any, name: str, arr: NDArray[Any], kw: Mapping[str, Any],
-               direct: bool) -> None:
-    """An :func:`image_codec` dataset, compressed by HDF5 or (``direct``) chunk by chunk
-    here, with the same filters and so the same bytes."""
-    if not direct or kw.get("compression") != "gzip":
+def _put_image(group: Any, path: str, name: str, arr: NDArray[Any], kw: Mapping[str, Any],
+               compressed: Compressed) -> None:
+    """An :func:`image_codec` dataset, its chunks compressed here (or taken from
+    ``compressed``) and written as they are: the filters HDF5 would apply, so the same
+    bytes. ``path`` is the group's path in the episode group."""
+    key = f"{path}/{name}"
+    if kw.get("compression") != "gzip":  # an empty stack: no chunks, no filters
         h5_objects.dataset(group, name, arr, kw)
         return
-    chunks = tuple(kw["chunks"])
-    if chunks != arr.shape and chunks != (1, *arr.shape[1:]):
-        msg = f"direct chunk writes take one image or one image per chunk, got chunks {chunks}"
-        raise InvalidArgument(msg)
+    chunks = list(image_chunks(arr, kw))  # refuses other chunk shapes before creating
     ds = h5_objects.empty_dataset(group, name, arr.shape, arr.dtype, kw)
-    if chunks == arr.shape:
-        ds.write_direct_chunk((0,) * arr.ndim, filtered_chunk(arr, kw))
-        return
-    for k in range(arr.shape[0]):
-        ds.write_direct_chunk((k,) + (0,) * (arr.ndim - 1), filtered_chunk(arr[k:k + 1], kw))
+    for k, offset, chunk in chunks:
+        ready = compressed.get((key, k))
+        ds.write_direct_chunk(offset, ready if ready is not None else filtered_chunk(chunk, kw))
 
 
 def write_episode_group(parent: h5py.Group, episode: Episode, index: int, ehash: str, *,
-                        direct_chunks: bool = False) -> None:
+                        compressed: Compressed | None = None) -> None:
     """Write one episode as ``parent/<id>`` in the layout of :mod:`~nsrmp_bench.storage.layout`.
 
     The groups, datasets and attributes are made through :mod:`~nsrmp_bench.storage.
     h5_objects` (h5py's low-level calls, the same bytes as its high-level ones).
-    ``direct_chunks`` compresses the images here rather than in HDF5 (same bytes; Python's
-    zlib runs without the GIL, so another thread can work meanwhile)."""
+    The image chunks are compressed here by Python's zlib (:func:`~nsrmp_bench.storage.
+    chunks.filtered_chunk`) and written with ``write_direct_chunk``, not by HDF5's filters
+    called through h5py: the same bytes, less CPU (h5py's filter path copies and converts
+    on the way), and zlib lets go of the GIL, so a writer thread leaves its caller room.
+    ``compressed`` holds chunks already through the filters (:func:`~nsrmp_bench.storage.
+    chunks.precompress`), stored as they are."""
     sym = episode.symbolic
     arrays = episode_arrays(episode)
     g = h5_objects.group(parent.id, check_episode_id(sym.id))
@@ -139,19 +139,12 @@ def write_episode_group(parent: h5py.Group, episode: Episode, index: int, ehash:
     h5_objects.string_dataset(targets, "symbolic", canonical_json(sym.to_dict()))
     h5_objects.string_dataset(targets, "program", sym.program.text())
 
-    if "observations/rgb" in arrays:
-        in_obs = h5_objects.group(inputs, "obs")
-        tg_obs = h5_objects.group(targets, "obs")
-        for key in ("rgb", "depth"):
-            arr = arrays[f"observations/{key}"]
-            first, later = arr[0], arr[1:]
-            _put_image(in_obs, key, first, image_codec(first.shape, first.dtype, stacked=False),
-                       direct_chunks)
-            _put_image(tg_obs, key, later, image_codec(later.shape, later.dtype, stacked=True),
-                       direct_chunks)
-        seg = arrays["observations/segmentation"]
-        _put_image(tg_obs, "segmentation", seg, image_codec(seg.shape, seg.dtype, stacked=True),
-                   direct_chunks)
+    images = image_datasets(arrays)
+    if images:
+        groups = {"inputs/obs": h5_objects.group(inputs, "obs"),
+                  "targets/obs": h5_objects.group(targets, "obs")}
+        for path, name, arr, kw in images:
+            _put_image(groups[path], path, name, arr, kw, compressed or {})
     if r is not None:
         for key in ("boxes_amodal", "boxes_visible"):
             h5_objects.dataset(inputs, key, arrays[f"targets/{key}"][0], small_codec())
@@ -260,16 +253,22 @@ class ShardWriter:
                 raise InvalidArgument(msg) from self._error
             raise RuntimeError(msg) from self._error
 
-    def _write(self, episode: Episode, index: int) -> None:
-        """Hash and write one episode (on the writer thread when in the background)."""
+    def _write(self, episode: Episode, index: int, compressed: Compressed | None = None) -> None:
+        """Hash and write one episode (on the writer thread when in the background), its
+        image chunks in ``compressed`` as they are."""
         assert self._f is not None
         ehash = episode_hash(episode)
-        write_episode_group(self._data, episode, index, ehash,
-                            direct_chunks=self._thread is not None)
+        write_episode_group(self._data, episode, index, ehash, compressed=compressed)
         self._f.flush()
         self._entries.append(EpisodeEntry(index, episode.id, ehash,
                                           episode.symbolic.categories(),
                                           tolerant_summary(episode)))
+
+    @property
+    def chunks_compressed_here(self) -> int:
+        """How many image chunks the caller compressed itself so far, rather than wait
+        for a lagging writer process (0 for the other writers)."""
+        return self._child.stolen_chunks if self._child is not None else 0
 
     @property
     def next_index(self) -> int:
@@ -278,6 +277,11 @@ class ShardWriter:
 
     def add(self, episode: Episode) -> None:
         """Write one episode (then flush), or queue it for the writer thread or process."""
+        self._add(episode, None)
+
+    def _add(self, episode: Episode, compressed: Compressed | None) -> None:
+        """:meth:`add`; the synchronous writer of a writer process also takes the image
+        chunks its parent compressed (``compressed``)."""
         self._raise_error()
         if self._f is None and (self._child is None or self._child.closed):
             msg = f"shard {self.file} is already committed or aborted; open a new ShardWriter"
@@ -297,7 +301,7 @@ class ShardWriter:
         elif self._jobs is not None:
             self._jobs.put(lambda: self._write(episode, index))
         else:
-            self._write(episode, index)
+            self._write(episode, index, compressed)
         self._generators.append(episode.symbolic.generator)
         if self._camera is None and episode.rendering is not None:
             self._camera = canonical_json(episode.rendering.camera.to_dict())
@@ -430,6 +434,7 @@ class _Child:
         answer_w.close()  # the child's; the parent keeps the reading end
         self._episodes_r.close()
         self.closed = False
+        self.stolen_chunks = 0  # image chunks compressed here while the child lagged
         self._error: tuple[bool, str] | None = None
         ready = self._answer()
         if ready[0] != "open":
@@ -449,10 +454,18 @@ class _Child:
         return msg
 
     def add(self, episode: Episode) -> None:
+        """Hand ``episode`` over. While the child lags (both slots hold episodes it has
+        not written), compress this episode's image chunks here rather than wait, until a
+        slot is free: the child stores those as they are (the same bytes)."""
         self.raise_error()
+        compressed: Compressed = {}
+        if not self._handover.free():
+            compressed = precompress(episode_arrays(episode), until=self._handover.free)
+        self.stolen_chunks += len(compressed)
+        item = (episode, compressed)
         try:
-            packed = self._handover.pack(episode, self._alive)
-            self._episodes_w.send(("add", episode) if packed is None else ("shared", packed))
+            packed = self._handover.pack(item, self._alive)
+            self._episodes_w.send(("add", item) if packed is None else ("shared", packed))
         except (BrokenPipeError, ConnectionResetError):
             self._stopped()
 
@@ -519,15 +532,15 @@ def _child_main(episodes: Connection, parents_end: Connection, answer: Connectio
         answer.send(("open", None))
         while True:
             try:
-                kind, episode = episodes.recv()
+                kind, item = episodes.recv()
             except EOFError:  # the parent died or gave up: nothing half-written stays
                 writer.abort()
                 return
             if kind == "add":
-                writer.add(episode)
+                writer._add(*item)
             elif kind == "shared":  # its arrays are views of a slot, freed once written:
                 # the writer is synchronous and keeps no array of what it wrote
-                writer.add(handover.unpack(episode))
+                writer._add(*handover.unpack(item))
                 handover.release()
             elif kind == "commit":
                 answer.send(("record", writer.commit()))

@@ -147,3 +147,15 @@ def test_a_parent_waiting_for_a_slot_of_a_dead_child_is_told() -> None:
         handover.pack(_objects(1)[0], alive)  # the only slot is never freed
     assert checks >= 1 and time.monotonic() - start < 5.0
     handover.close()
+
+
+def test_free_says_whether_pack_would_wait_and_takes_no_slot() -> None:
+    handover = Handover(CTX, slots=2, slot_bytes=4 * 1024 * 1024)
+    assert handover.free() and handover.free()  # asking twice takes nothing
+    assert handover.pack(_objects(0)[0], lambda: None) is not None
+    assert handover.free()  # one slot left
+    assert handover.pack(_objects(1)[0], lambda: None) is not None
+    assert not handover.free()  # both hold objects the child has not released
+    handover.release()
+    assert handover.free()
+    handover.close()

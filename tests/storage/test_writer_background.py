@@ -13,20 +13,33 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 pytest.importorskip("pybullet")
 
+from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage import open as open_part
 from nsrmp_bench.storage import writer as writer_module
+from nsrmp_bench.storage.arrays import episode_arrays
+from nsrmp_bench.storage.chunks import precompress
 from nsrmp_bench.storage.handover import Handover, Packed
+from nsrmp_bench.storage.records import ShardRecord
 from nsrmp_bench.storage.writer import Background, ShardWriter, writer_mode
 
 
 def _sha(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _write_in_process(out: Path, episodes: list[Episode]) -> tuple[ShardWriter, ShardRecord]:
+    """``episodes`` written by a writer process as one shard: the writer and its record."""
+    with ShardWriter(out, 0, len(episodes), split="smoke-v2/test", background="process") as w:
+        for ep in episodes:
+            w.add(ep)
+        return w, w.commit()
 
 
 def test_background_writer_writes_the_bytes_of_the_synchronous_one(
@@ -48,6 +61,46 @@ def test_background_writer_writes_the_bytes_of_the_synchronous_one(
     # and all are the shard the generator made
     committed = next(smoke_v2_test.glob("shard-*.h5"))
     assert shas[True][0] == _sha(committed)
+
+
+def test_a_caller_that_compresses_for_a_lagging_writer_process_writes_the_same_bytes(
+    smoke_v2_test: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A writer process slowed down (the fork inherits the patch) lags behind a caller
+    with episodes at hand: the caller compresses image chunks while it waits for a slot,
+    the child stores them as they are, and the shard is the committed one."""
+    with open_part(smoke_v2_test) as part:
+        episodes = [part.episode(i) for i in range(len(part))]
+    write = writer_module.write_episode_group
+
+    def slow(*args: Any, **kwargs: Any) -> None:
+        time.sleep(0.1)
+        write(*args, **kwargs)
+
+    monkeypatch.setattr(writer_module, "write_episode_group", slow)
+    w, record = _write_in_process(tmp_path, episodes)
+    # from the third episode on both slots are full when it comes: at least one chunk each
+    assert w.chunks_compressed_here >= len(episodes) - 2
+    assert _sha(tmp_path / record.file) == _sha(next(smoke_v2_test.glob("shard-*.h5")))
+
+
+def test_an_episode_with_some_chunks_compressed_beforehand_has_the_same_bytes(
+    smoke_v2_test: Path, tmp_path: Path
+) -> None:
+    """Chunks given compressed are stored as they are, the rest are compressed by the
+    writer: the same bytes as the committed shard, for every split point."""
+    with open_part(smoke_v2_test) as part:
+        episodes = [part.episode(i) for i in range(len(part))]
+    out = tmp_path / "mixed"
+    with ShardWriter(out, 0, len(episodes), split="smoke-v2/test", background=False) as w:
+        for k, ep in enumerate(episodes):
+            done = iter(range(10**6))
+            # episode k: its first k chunks (all of them for the later episodes) given
+            compressed = precompress(episode_arrays(ep), until=lambda k=k, d=done: next(d) >= k)
+            assert len(compressed) == min(k, 3 * ep.symbolic.num_steps + 3)
+            w._add(ep, compressed)
+        record = w.commit()
+    assert _sha(out / record.file) == _sha(next(smoke_v2_test.glob("shard-*.h5")))
 
 
 def test_an_error_on_the_writer_thread_surfaces_and_leaves_no_file(
@@ -124,11 +177,7 @@ def test_episodes_too_large_for_the_shared_slots_go_by_the_pipe_with_the_same_by
         return out
 
     monkeypatch.setattr(Handover, "pack", spy)
-    with ShardWriter(tmp_path, 0, len(episodes), split="smoke-v2/test",
-                     background="process") as w:
-        for ep in episodes:
-            w.add(ep)
-        record = w.commit()
+    _, record = _write_in_process(tmp_path, episodes)
     assert packed == [False] * len(episodes)  # every one went whole by the pipe
     assert _sha(tmp_path / record.file) == _sha(next(smoke_v2_test.glob("shard-*.h5")))
 
@@ -149,6 +198,7 @@ _KILLED_CALLER = """
 import sys, time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 from nsrmp_bench.storage import open as open_part
 from nsrmp_bench.storage.writer import ShardWriter
 with open_part(Path(sys.argv[1])) as part:

@@ -1,0 +1,100 @@
+"""An episode's image datasets and their chunks through the format's filters.
+
+Every image dataset of a shard (:func:`~nsrmp_bench.storage.layout.image_codec`) is stored
+one image per chunk, byte-shuffled when it holds floats, then DEFLATE level 1.
+:func:`filtered_chunk` runs that pipeline in Python (``zlib`` lets go of the GIL, unlike
+HDF5's filter called through h5py) and gives the bytes HDF5 itself would store, so a chunk
+compressed here and written with ``write_direct_chunk`` makes the same file.
+
+:func:`precompress` is how a process that hands its episodes to a writer process takes
+part of the writer's work when the writer lags behind: it compresses chunks while it
+would otherwise wait for a free slot, and the writer stores them as they are
+(:mod:`~nsrmp_bench.storage.writer`).
+"""
+
+from __future__ import annotations
+
+import zlib
+from collections.abc import Callable, Iterator, Mapping
+from typing import Any, TypeAlias
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.storage.layout import image_codec
+
+__all__ = ["ChunkKey", "Compressed", "filtered_chunk", "image_chunks", "image_datasets",
+           "precompress"]
+
+ChunkKey: TypeAlias = tuple[str, int]
+"""(the dataset's path in the episode group, e.g. ``targets/obs/rgb``; the chunk's index
+along the first axis, 0 for a single image)."""
+
+Compressed: TypeAlias = dict[ChunkKey, NDArray[np.uint8]]
+"""Chunks already through the filters, by key; what the writer stores as they are."""
+
+
+def filtered_chunk(chunk: NDArray[Any], kw: Mapping[str, Any]) -> bytes:
+    """``chunk`` through the filter pipeline of an :func:`image_codec` dataset: byte
+    shuffle (when ``kw["shuffle"]``), then DEFLATE at ``kw["compression_opts"]``, as
+    HDF5's H5Z_SHUFFLE and H5Z_DEFLATE (``compress2``) do."""
+    data = np.ascontiguousarray(chunk)
+    if kw.get("shuffle") and data.size > 1:
+        raw = data.view(np.uint8).reshape(data.size, data.dtype.itemsize).T.tobytes()
+    else:
+        raw = data.tobytes()
+    return zlib.compress(raw, int(kw["compression_opts"]))
+
+
+def image_datasets(arrays: Mapping[str, NDArray[Any]]
+                   ) -> list[tuple[str, str, NDArray[Any], dict[str, Any]]]:
+    """(group path, name, array, h5py keywords) of each image dataset of an episode, given
+    its :func:`~nsrmp_bench.storage.arrays.episode_arrays`, in the order they are written:
+    the first state's RGB and depth under ``inputs/obs``, the later states' and every
+    state's segmentation under ``targets/obs``. Empty when the episode has no images."""
+    if "observations/rgb" not in arrays:
+        return []
+    out: list[tuple[str, str, NDArray[Any], dict[str, Any]]] = []
+    for key in ("rgb", "depth"):
+        arr = arrays[f"observations/{key}"]
+        first, later = arr[0], arr[1:]
+        out.append(("inputs/obs", key, first,
+                    image_codec(first.shape, first.dtype, stacked=False)))
+        out.append(("targets/obs", key, later,
+                    image_codec(later.shape, later.dtype, stacked=True)))
+    seg = arrays["observations/segmentation"]
+    out.append(("targets/obs", "segmentation", seg,
+                image_codec(seg.shape, seg.dtype, stacked=True)))
+    return out
+
+
+def image_chunks(arr: NDArray[Any], kw: Mapping[str, Any]
+                 ) -> Iterator[tuple[int, tuple[int, ...], NDArray[Any]]]:
+    """(index, offset, chunk) of each chunk of an :func:`image_codec` dataset holding
+    ``arr``: the whole array when its chunk is the array, else one image per chunk. Other
+    chunk shapes are refused, naming them."""
+    chunks = tuple(kw["chunks"])
+    if chunks == arr.shape:
+        yield 0, (0,) * arr.ndim, arr
+        return
+    if chunks != (1, *arr.shape[1:]):
+        msg = (f"direct chunk writes take one image or one image per chunk, got chunks "
+               f"{chunks} for an array of shape {arr.shape}")
+        raise InvalidArgument(msg)
+    for k in range(arr.shape[0]):
+        yield k, (k,) + (0,) * (arr.ndim - 1), arr[k:k + 1]
+
+
+def precompress(arrays: Mapping[str, NDArray[Any]], until: Callable[[], bool]) -> Compressed:
+    """Compress an episode's image chunks, in writing order, one at a time until
+    ``until()`` says to stop (it is asked before each chunk) or all are done."""
+    out: Compressed = {}
+    for path, name, arr, kw in image_datasets(arrays):
+        if kw.get("compression") != "gzip":
+            continue
+        for k, _, chunk in image_chunks(arr, kw):
+            if until():
+                return out
+            out[(f"{path}/{name}", k)] = np.frombuffer(filtered_chunk(chunk, kw), np.uint8)
+    return out
