@@ -86,15 +86,22 @@ def image_chunks(arr: NDArray[Any], kw: Mapping[str, Any]
         yield k, (k,) + (0,) * (arr.ndim - 1), arr[k:k + 1]
 
 
-def precompress(arrays: Mapping[str, NDArray[Any]], until: Callable[[], bool]) -> Compressed:
+def precompress(arrays: Mapping[str, NDArray[Any]], until: Callable[[], bool], *,
+                max_bytes: int | None = None) -> Compressed:
     """Compress an episode's image chunks, in writing order, one at a time until
-    ``until()`` says to stop (it is asked before each chunk) or all are done."""
+    ``until()`` says to stop (it is asked before each chunk), the next chunk would take
+    the compressed bytes past ``max_bytes``, or all are done."""
     out: Compressed = {}
+    total = 0
     for path, name, arr, kw in image_datasets(arrays):
         if kw.get("compression") != "gzip":
             continue
         for k, _, chunk in image_chunks(arr, kw):
             if until():
                 return out
-            out[(f"{path}/{name}", k)] = np.frombuffer(filtered_chunk(chunk, kw), np.uint8)
+            data = filtered_chunk(chunk, kw)
+            total += len(data)
+            if max_bytes is not None and total > max_bytes:
+                return out
+            out[(f"{path}/{name}", k)] = np.frombuffer(data, np.uint8)
     return out

@@ -11,7 +11,9 @@ without a copy, and frees the slot when it has written the object.
 
 Slots are used in turn and counted by a semaphore, so the parent never overwrites a slot
 the child still reads: with two slots, the child writes one episode while the parent
-fills the next, and a parent two episodes ahead waits. An object whose large buffers do
+fills the next, and a parent two episodes ahead waits (:meth:`Handover.free` tells it
+beforehand, so that it can do something useful first: the writer process compresses
+image chunks for its child then). An object whose large buffers do
 not fit a slot goes through the pipe as before (:meth:`Handover.pack` returns None).
 """
 

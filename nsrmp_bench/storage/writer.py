@@ -296,10 +296,10 @@ class ShardWriter:
         if index >= self.stop:
             msg = f"shard {self.file} covers indices [{self.start}, {self.stop}); got {index}"
             raise InvalidArgument(msg)
-        if self._child is not None:
+        if self._child is not None:  # its own caller compresses for it (compressed is None)
             self._child.add(episode)
         elif self._jobs is not None:
-            self._jobs.put(lambda: self._write(episode, index))
+            self._jobs.put(lambda: self._write(episode, index, compressed))
         else:
             self._write(episode, index, compressed)
         self._generators.append(episode.symbolic.generator)
@@ -412,11 +412,13 @@ def writer_mode() -> Literal["process", "thread"]:
 class _Child:
     """The parent's end of a shard written in a forked child (``background="process"``).
 
-    Each episode's large arrays go into one of two shared slots (a :class:`Handover`;
-    handing the next one over waits while both hold episodes the child has not written)
-    and the rest over a one-way pipe; an episode too large for a slot goes whole over the
-    pipe. The child answers when it has opened the file and once at the end: the record,
-    or the error that stopped it."""
+    Each episode goes over as (episode, the image chunks compressed here) with its large
+    arrays in one of two shared slots (a :class:`Handover`) and the rest over a one-way
+    pipe; an episode too large for a slot goes whole over the pipe. While both slots hold
+    episodes the child has not written, the parent compresses chunks of the next episode
+    (as many as still fit its slot) until one is free, then waits if it must. The child
+    answers when it has opened the file and once at the end: the record, or the error
+    that stopped it."""
 
     def __init__(self, tmp_path: Path, args: tuple[str, int, int, str, str]) -> None:
         """``args``: the child's ShardWriter's (out_dir, start, stop, split, version);
@@ -460,14 +462,22 @@ class _Child:
         self.raise_error()
         compressed: Compressed = {}
         if not self._handover.free():
-            compressed = precompress(episode_arrays(episode), until=self._handover.free)
-        self.stolen_chunks += len(compressed)
+            try:
+                arrays = episode_arrays(episode)
+            except InvalidArgument:  # the child refuses it, as when it does not lag
+                arrays = {}
+            # what still fits the slot beside the images (64 bytes of alignment a buffer)
+            room = self._handover.slot_bytes - sum(a.nbytes + 64 for a in arrays.values())
+            compressed = precompress(
+                arrays, until=lambda: self._handover.free() or not self._proc.is_alive(),
+                max_bytes=room)
         item = (episode, compressed)
         try:
             packed = self._handover.pack(item, self._alive)
             self._episodes_w.send(("add", item) if packed is None else ("shared", packed))
         except (BrokenPipeError, ConnectionResetError):
             self._stopped()
+        self.stolen_chunks += len(compressed)
 
     def _alive(self) -> None:
         """Raise the child's error if it has stopped (called while waiting for a slot)."""

@@ -1,5 +1,7 @@
-"""The writer thread (zlib, direct chunk writes) and the writer process write the same bytes
-as HDF5's filters; an error or a dead caller leaves no file."""
+"""The writer thread and the writer process write the bytes of the synchronous writer and of
+the committed shards (every writer compresses its image chunks with zlib and writes them
+directly, as HDF5's filters would); chunks compressed by the caller are stored as given;
+an error or a dead caller leaves no file."""
 
 from __future__ import annotations
 
@@ -15,16 +17,19 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import h5py
+import numpy as np
 import pytest
 
 pytest.importorskip("pybullet")
 
 from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.storage import chunks as chunks_module
 from nsrmp_bench.storage import open as open_part
 from nsrmp_bench.storage import writer as writer_module
 from nsrmp_bench.storage.arrays import episode_arrays
-from nsrmp_bench.storage.chunks import precompress
+from nsrmp_bench.storage.chunks import filtered_chunk, image_chunks, image_datasets, precompress
 from nsrmp_bench.storage.handover import Handover, Packed
 from nsrmp_bench.storage.records import ShardRecord
 from nsrmp_bench.storage.writer import Background, ShardWriter, writer_mode
@@ -63,6 +68,17 @@ def test_background_writer_writes_the_bytes_of_the_synchronous_one(
     assert shas[True][0] == _sha(committed)
 
 
+def _slow_down_the_writer(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every episode written 0.1 s late (a writer process forked afterwards inherits it)."""
+    write = writer_module.write_episode_group
+
+    def slow(*args: Any, **kwargs: Any) -> None:
+        time.sleep(0.1)
+        write(*args, **kwargs)
+
+    monkeypatch.setattr(writer_module, "write_episode_group", slow)
+
+
 def test_a_caller_that_compresses_for_a_lagging_writer_process_writes_the_same_bytes(
     smoke_v2_test: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -71,24 +87,51 @@ def test_a_caller_that_compresses_for_a_lagging_writer_process_writes_the_same_b
     the child stores them as they are, and the shard is the committed one."""
     with open_part(smoke_v2_test) as part:
         episodes = [part.episode(i) for i in range(len(part))]
-    write = writer_module.write_episode_group
-
-    def slow(*args: Any, **kwargs: Any) -> None:
-        time.sleep(0.1)
-        write(*args, **kwargs)
-
-    monkeypatch.setattr(writer_module, "write_episode_group", slow)
+    _slow_down_the_writer(monkeypatch)
     w, record = _write_in_process(tmp_path, episodes)
-    # from the third episode on both slots are full when it comes: at least one chunk each
+    # from the third episode on both slots are full when it comes (the child sleeps 0.1 s
+    # an episode), so the caller compresses for nearly every one; the total is what holds
     assert w.chunks_compressed_here >= len(episodes) - 2
     assert _sha(tmp_path / record.file) == _sha(next(smoke_v2_test.glob("shard-*.h5")))
+
+
+def test_the_chunks_a_caller_compresses_reach_the_file_through_the_writer_process(
+    smoke_v2_test: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The caller's chunks, marked by another DEFLATE level after the child was forked (so
+    only the caller marks), are in the file: as many as it says it compressed."""
+    with open_part(smoke_v2_test) as part:
+        episodes = [part.episode(i) for i in range(len(part))]
+    _slow_down_the_writer(monkeypatch)
+    with ShardWriter(tmp_path, 0, len(episodes), split="smoke-v2/test",
+                     background="process") as w:
+        monkeypatch.setattr(chunks_module, "filtered_chunk", lambda chunk, kw: filtered_chunk(
+            chunk, {**kw, "compression_opts": 9}))
+        for ep in episodes:
+            w.add(ep)
+        record = w.commit()
+    monkeypatch.undo()
+    marked = 0
+    with h5py.File(tmp_path / record.file) as f:
+        for ep in episodes:
+            group = f["data"][ep.id]
+            for path, name, arr, kw in image_datasets(episode_arrays(ep)):
+                ds = group[f"{path}/{name}"]
+                np.testing.assert_array_equal(ds[()], arr)
+                for _, offset, chunk in image_chunks(arr, kw):
+                    data = ds.id.read_direct_chunk(offset)[1]
+                    if data != filtered_chunk(chunk, kw):
+                        assert data == filtered_chunk(chunk, {**kw, "compression_opts": 9})
+                        marked += 1
+    assert marked == w.chunks_compressed_here > 0
 
 
 def test_an_episode_with_some_chunks_compressed_beforehand_has_the_same_bytes(
     smoke_v2_test: Path, tmp_path: Path
 ) -> None:
     """Chunks given compressed are stored as they are, the rest are compressed by the
-    writer: the same bytes as the committed shard, for every split point."""
+    writer: the same bytes as the committed shard, with a different split per episode
+    (episode k: its first k chunks given)."""
     with open_part(smoke_v2_test) as part:
         episodes = [part.episode(i) for i in range(len(part))]
     out = tmp_path / "mixed"
@@ -101,6 +144,39 @@ def test_an_episode_with_some_chunks_compressed_beforehand_has_the_same_bytes(
             w._add(ep, compressed)
         record = w.commit()
     assert _sha(out / record.file) == _sha(next(smoke_v2_test.glob("shard-*.h5")))
+
+
+def test_chunks_given_compressed_are_the_chunks_stored(smoke_v2_test: Path, tmp_path: Path) -> None:
+    """Given chunks marked by another DEFLATE level (the same pixels, other bytes) are the
+    stored ones, exactly those, and the images read back unchanged."""
+    with open_part(smoke_v2_test) as part:
+        episode = part.episode(len(part) - 1)
+    arrays = episode_arrays(episode)
+    given: dict[tuple[str, int], np.ndarray[Any, Any]] = {}
+    for path, name, arr, kw in image_datasets(arrays):
+        for k, _, chunk in image_chunks(arr, kw):
+            if (len(given) + k) % 2 == 0:  # every other chunk, in every dataset
+                marked = filtered_chunk(chunk, {**kw, "compression_opts": 9})
+                given[(f"{path}/{name}", k)] = np.frombuffer(marked, np.uint8)
+    index = episode.symbolic.seed.index
+    with ShardWriter(tmp_path, index, index + 1, split="smoke-v2/test", background=False) as w:
+        w._add(episode, given)
+        record = w.commit()
+    stored = 0
+    with h5py.File(tmp_path / record.file) as f:
+        group = f["data"][episode.id]
+        for path, name, arr, kw in image_datasets(arrays):
+            ds = group[f"{path}/{name}"]
+            np.testing.assert_array_equal(ds[()], arr)
+            for k, offset, chunk in image_chunks(arr, kw):
+                _, data = ds.id.read_direct_chunk(offset)
+                mark = given.get((f"{path}/{name}", k))
+                if mark is None:
+                    assert data == filtered_chunk(chunk, kw)
+                else:
+                    assert data == mark.tobytes()
+                    stored += 1
+    assert stored == len(given) > 0
 
 
 def test_an_error_on_the_writer_thread_surfaces_and_leaves_no_file(
