@@ -24,8 +24,8 @@ from numpy.typing import NDArray
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage.layout import image_codec
 
-__all__ = ["ChunkKey", "Compressed", "filtered_chunk", "image_chunks", "image_datasets",
-           "precompress"]
+__all__ = ["ChunkKey", "Compressed", "filtered_chunk", "has_filtered_chunks", "image_chunks",
+           "image_datasets", "precompress"]
 
 ChunkKey: TypeAlias = tuple[str, int]
 """(the dataset's path in the episode group, e.g. ``targets/obs/rgb``; the chunk's index
@@ -69,6 +69,12 @@ def image_datasets(arrays: Mapping[str, NDArray[Any]]
     return out
 
 
+def has_filtered_chunks(kw: Mapping[str, Any]) -> bool:
+    """Whether a dataset made with these h5py keywords stores chunks through the filters
+    (an empty stack's :func:`image_codec` has neither chunks nor filters)."""
+    return kw.get("compression") == "gzip"
+
+
 def image_chunks(arr: NDArray[Any], kw: Mapping[str, Any]
                  ) -> Iterator[tuple[int, tuple[int, ...], NDArray[Any]]]:
     """(index, offset, chunk) of each chunk of an :func:`image_codec` dataset holding
@@ -94,7 +100,7 @@ def precompress(arrays: Mapping[str, NDArray[Any]], until: Callable[[], bool], *
     out: Compressed = {}
     total = 0
     for path, name, arr, kw in image_datasets(arrays):
-        if kw.get("compression") != "gzip":
+        if not has_filtered_chunks(kw):
             continue
         for k, _, chunk in image_chunks(arr, kw):
             if until():

@@ -60,6 +60,7 @@ from nsrmp_bench.storage.arrays import episode_arrays
 from nsrmp_bench.storage.chunks import (
     Compressed,
     filtered_chunk,
+    has_filtered_chunks,
     image_chunks,
     image_datasets,
     precompress,
@@ -91,7 +92,7 @@ def _put_image(group: Any, path: str, name: str, arr: NDArray[Any], kw: Mapping[
     ``compressed``) and written as they are: the filters HDF5 would apply, so the same
     bytes. ``path`` is the group's path in the episode group."""
     key = f"{path}/{name}"
-    if kw.get("compression") != "gzip":  # an empty stack: no chunks, no filters
+    if not has_filtered_chunks(kw):  # an empty stack
         h5_objects.dataset(group, name, arr, kw)
         return
     chunks = list(image_chunks(arr, kw))  # refuses other chunk shapes before creating
