@@ -167,6 +167,14 @@ def generate_only(spec: SplitSpec, part: str, n: int, timed: TimedWorld) -> tupl
     return total / n * 1e3, timed.begin_s / n * 1e3
 
 
+def generate_alone(spec: SplitSpec, part: str, n: int, timed: TimedWorld) -> tuple[float, float]:
+    """(wall, CPU) seconds per instance of generating the first ``n`` alone, the figures
+    :func:`end_to_end` is compared with."""
+    wall = time.perf_counter()
+    cpu_ms = generate_only(spec, part, n, timed)[0]
+    return (time.perf_counter() - wall) / n, cpu_ms / 1e3
+
+
 def end_to_end(spec: SplitSpec, part: str, n: int, timed: TimedWorld,
                background: Background) -> tuple[float, float]:
     """(wall, CPU) seconds per episode of making the first ``n`` instances into a committed
@@ -382,15 +390,10 @@ def writer_ablation(spec: SplitSpec, part: str, n: int, repeat: int,
                 Handover.free, writer_module._put_image = free, put  # type: ignore[method-assign]
         return run
 
-    def alone() -> tuple[float, float]:
-        wall = time.perf_counter()
-        cpu_ms = generate_only(spec, part, n, timed)[0]
-        return (time.perf_counter() - wall) / n, cpu_ms / 1e3
-
     rows = alternate(repeat, {"shipped": variant(True, True),
                               "writer compresses alone": variant(False, True),
                               "HDF5's filter, writer alone": variant(False, False),
-                              "generate only": alone})
+                              "generate only": lambda: generate_alone(spec, part, n, timed)})
     print(f"writer process, {spec.id}/{part}, {n} episodes at {image[0]}x{image[1]}, wall ms "
           f"per episode, medians of {repeat} alternating runs:")
     for name, xs in rows.items():
@@ -485,15 +488,10 @@ def main() -> None:
         print(f"  {name:6s}: make_episode {ep:6.1f} ms, World.begin {begin:5.1f} ms "
               f"= {share:.1%} of an episode")
 
-    def generate_alone() -> tuple[float, float]:
-        wall = time.perf_counter()
-        cpu_ms = generate_only(spec, part, n, timed["after"])[0]
-        return (time.perf_counter() - wall) / n, cpu_ms / 1e3
-
     e2e = alternate(args.repeat, {
         **{name: (lambda name=name, t=t: end_to_end(spec, part, n, t, writer[name]))
            for name, t in timed.items()},
-        "after, generate only": generate_alone,
+        "after, generate only": lambda: generate_alone(spec, part, n, timed["after"]),
         # the writer of the step before: a thread, which waits for PyBullet's GIL
         "after, writer thread": lambda: end_to_end(spec, part, n, timed["after"], True),
     })

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import mmap
 import pickle
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from multiprocessing.context import BaseContext
 from typing import Any, TypeAlias
 
@@ -34,6 +34,11 @@ Packed: TypeAlias = tuple[int, bytes, list[tuple[int, int]]]
 
 _OUT_OF_BAND = 64 * 1024  # smaller buffers stay in the pickle
 _ALIGN = 64
+
+
+def _aligned(size: int) -> int:
+    """The bytes a buffer of ``size`` takes in a slot (each starts at a multiple of 64)."""
+    return -(-size // _ALIGN) * _ALIGN
 
 
 class Handover:
@@ -76,7 +81,7 @@ class Handover:
                 return True  # in band
             raws.append(raw)
             spans.append((end, raw.nbytes))
-            end += -(-raw.nbytes // _ALIGN) * _ALIGN
+            end += _aligned(raw.nbytes)
             return False
 
         meta = pickle.dumps(obj, protocol=5, buffer_callback=out_of_band)
@@ -94,6 +99,11 @@ class Handover:
             raise
         self._next += 1
         return slot, meta, spans
+
+    def room(self, sizes: Iterable[int]) -> int:
+        """Bytes a slot has left once it holds buffers of these sizes, laid out as
+        :meth:`pack` lays them (negative: they do not fit)."""
+        return self.slot_bytes - sum(_aligned(size) for size in sizes)
 
     def free(self) -> bool:
         """Whether a slot is free now, so that :meth:`pack` would not wait (the parent;

@@ -269,7 +269,7 @@ class ShardWriter:
     def chunks_compressed_here(self) -> int:
         """How many image chunks the caller compressed itself so far, rather than wait
         for a lagging writer process (0 for the other writers)."""
-        return self._child.stolen_chunks if self._child is not None else 0
+        return self._child.chunks_compressed if self._child is not None else 0
 
     @property
     def next_index(self) -> int:
@@ -437,7 +437,7 @@ class _Child:
         answer_w.close()  # the child's; the parent keeps the reading end
         self._episodes_r.close()
         self.closed = False
-        self.stolen_chunks = 0  # image chunks compressed here while the child lagged
+        self.chunks_compressed = 0  # image chunks compressed here while the child lagged
         self._error: tuple[bool, str] | None = None
         ready = self._answer()
         if ready[0] != "open":
@@ -467,18 +467,16 @@ class _Child:
                 arrays = episode_arrays(episode)
             except InvalidArgument:  # the child refuses it, as when it does not lag
                 arrays = {}
-            # what still fits the slot beside the images (64 bytes of alignment a buffer)
-            room = self._handover.slot_bytes - sum(a.nbytes + 64 for a in arrays.values())
-            compressed = precompress(
+            compressed = precompress(  # as many as still fit the slot beside the arrays
                 arrays, until=lambda: self._handover.free() or not self._proc.is_alive(),
-                max_bytes=room)
+                max_bytes=self._handover.room(a.nbytes for a in arrays.values()))
         item = (episode, compressed)
         try:
             packed = self._handover.pack(item, self._alive)
             self._episodes_w.send(("add", item) if packed is None else ("shared", packed))
         except (BrokenPipeError, ConnectionResetError):
             self._stopped()
-        self.stolen_chunks += len(compressed)
+        self.chunks_compressed += len(compressed)
 
     def _alive(self) -> None:
         """Raise the child's error if it has stopped (called while waiting for a slot)."""

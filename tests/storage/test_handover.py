@@ -159,3 +159,11 @@ def test_free_says_whether_pack_would_wait_and_takes_no_slot() -> None:
     handover.release()
     assert handover.free()
     handover.close()
+
+
+def test_room_counts_buffers_as_pack_lays_them_out() -> None:
+    handover = Handover(CTX, slots=1, slot_bytes=4096)
+    assert handover.room([]) == 4096
+    assert handover.room([1, 64, 65]) == 4096 - 64 - 64 - 128
+    assert handover.room([4097]) < 0
+    handover.close()
