@@ -3,20 +3,26 @@
 Most of what is left of an instance's reset (``World.begin``, README "Generation speed")
 is spent inside PyBullet on work whose results nothing reads: zeroing and linking two pools
 of 4,096 contact manifolds and collision algorithms that every ``resetSimulation`` builds
-afresh (and zeroing every aligned block twice), and parsing the same two DNA tables again
-for every body the client is told about. The patches in ``scripts/pybullet/`` remove that
-work and nothing else:
+afresh (and zeroing every aligned block twice), parsing the same two DNA tables again
+for every body the client is told about, and parsing the same meshes and computing the
+same hulls for every instance. The patches in ``scripts/pybullet/`` remove that work and
+nothing else:
 
 - ``0001``: a pool hands each element out zeroed and linked, as its eager constructor left
   it, but zeroes it when it is first handed out instead of all of them up front;
 - ``0002``: an aligned block is zeroed once, not twice (the same zero bytes handed out);
 - ``0003``: the client keeps a (file DNA, memory DNA) pair it parsed, from its own copies
   of the bytes, and reuses it while both buffers hold the same bytes (compared in full);
-- ``0004``: the server's serializer parses each memory DNA once per process.
+- ``0004``: the server's serializer parses each memory DNA once per process;
+- ``0005``: an ``.obj`` mesh's parse is kept per (file name, base path, the file's bytes)
+  and handed out again while the file holds the same bytes (compared in full): the URDF
+  import parsed the arm's collision meshes again for every instance;
+- ``0006``: a convex hull's vertices are kept per list of input points (compared byte for
+  byte) and handed out again, instead of computing the same hull for every instance.
 
 Every committed v2 part regenerates bit for bit with the patched build (README). The
 script downloads the pinned sdist from the package registry (or takes ``--sdist``), checks
-its sha256, applies the patches, and builds a wheel versioned ``3.2.7+nsrmp.1`` with this
+its sha256, applies the patches, and builds a wheel versioned ``3.2.7+nsrmp.2`` with this
 interpreter's numpy (about 5 minutes on 2 cores; POSIX: the pool patch uses
 ``posix_memalign``)::
 
@@ -41,7 +47,7 @@ from nsrmp_bench.canonical import sha256_file
 
 PATCHES = Path(__file__).resolve().parent / "pybullet"
 VERSION = "3.2.7"
-LOCAL_VERSION = f"{VERSION}+nsrmp.1"
+LOCAL_VERSION = f"{VERSION}+nsrmp.2"
 SDIST = f"pybullet-{VERSION}.tar.gz"
 SDIST_SHA256 = "042879db8d101ac7590dee475fc6aded508b85fe1273fdbbfde1d88bd200e14f"
 """sha256 of the registry's ``pybullet-3.2.7.tar.gz`` (the sdist the patches are made for)."""
@@ -117,7 +123,7 @@ def apply_patches(root: Path, files: list[Path]) -> None:
 
 
 def set_version(root: Path) -> None:
-    """Give the build the local version ``3.2.7+nsrmp.1``, so manifests tell it apart."""
+    """Give the build the local version ``3.2.7+nsrmp.2``, so manifests tell it apart."""
     setup = root / "setup.py"
     text = setup.read_text()
     old = f"version='{VERSION}'"

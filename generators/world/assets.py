@@ -206,8 +206,10 @@ class _Part:
     position: tuple[float, float, float]
 
 
+@lru_cache(maxsize=1)
 def lego_parts() -> tuple[_Part, ...]:
-    """The brick's convex parts in its box-centred frame: the body, then the four studs."""
+    """The brick's convex parts in its box-centred frame: the body, then the four studs
+    (immutable, made once)."""
     ex, ey, ez = EXTENTS["lego"]
     body_h = ez - LEGO_STUD_HEIGHT
     z_body = -ez / 2.0 + body_h / 2.0
@@ -256,20 +258,25 @@ class ShapeIds:
     visual: int
 
 
-def create_shape_ids(pb: Any, client: int, shape: str) -> ShapeIds:
-    """Create the collision and visual shapes of ``shape`` (colour is set per body)."""
+def create_shape_ids(pb: Any, client: int, shape: str, *, visual: bool = True) -> ShapeIds:
+    """Create the collision and visual shapes of ``shape`` (colour is set per body);
+    ``visual=False``: the collision shape only (``visual`` -1), for bodies made without a
+    visual shape (the physics-only client's)."""
     white = [1.0, 1.0, 1.0, 1.0]
+    vis = -1
     if shape == "cube":
         half = [e / 2.0 for e in EXTENTS["cube"]]
         col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=client)
-        vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=white,
-                                   physicsClientId=client)
+        if visual:
+            vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=white,
+                                       physicsClientId=client)
     elif shape == "dice":
         half = [e / 2.0 for e in EXTENTS["dice"]]
         col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=client)
-        mesh = dice_mesh(EXTENTS["dice"][0])
-        vis = pb.createVisualShape(pb.GEOM_MESH, rgbaColor=white, physicsClientId=client,
-                                   **mesh)
+        if visual:
+            mesh = dice_mesh(EXTENTS["dice"][0])
+            vis = pb.createVisualShape(pb.GEOM_MESH, rgbaColor=white,
+                                       physicsClientId=client, **mesh)
     elif shape == "lego":
         parts = lego_parts()
         kinds = [pb.GEOM_BOX if p.kind == "box" else pb.GEOM_CYLINDER for p in parts]
@@ -281,14 +288,15 @@ def create_shape_ids(pb: Any, client: int, shape: str) -> ShapeIds:
         col = pb.createCollisionShapeArray(
             shapeTypes=kinds, halfExtents=half_extents, radii=radii, lengths=lengths,
             collisionFramePositions=positions, physicsClientId=client)
-        vis = pb.createVisualShapeArray(
-            shapeTypes=kinds, halfExtents=half_extents, radii=radii, lengths=lengths,
-            visualFramePositions=positions, rgbaColors=[white] * len(parts),
-            physicsClientId=client)
+        if visual:
+            vis = pb.createVisualShapeArray(
+                shapeTypes=kinds, halfExtents=half_extents, radii=radii, lengths=lengths,
+                visualFramePositions=positions, rgbaColors=[white] * len(parts),
+                physicsClientId=client)
     else:
         msg = f"unknown shape {shape!r}; expected one of cube, dice, lego"
         raise ValueError(msg)
-    if col < 0 or vis < 0:
+    if col < 0 or (visual and vis < 0):
         msg = f"PyBullet could not create the {shape} shapes (collision {col}, visual {vis})"
         raise RuntimeError(msg)
     return ShapeIds(int(col), int(vis))
@@ -371,9 +379,32 @@ def bounding_points_obj(src: Path, directory: Path) -> Path:
     return write_atomically(directory / f"{src.stem}_bounds_{digest}.obj", data)
 
 
+def _without_visuals(text: str) -> str:
+    """URDF ``text`` with no ``<visual>`` element, comment or indentation: what a load in
+    a client without a renderer builds from (the same links, joints, inertias, contact
+    parameters and collision shapes; the XML parse only has less to read)."""
+    text = re.sub(r"<visual>.*?</visual>", "", text, flags=re.DOTALL)
+    text = re.sub(r"<!--.*?-->", "", text, flags=re.DOTALL)
+    return re.sub(r">\s+<", "><", text).strip() + "\n"
+
+
+def physics_table_urdf(directory: Path, data_path: str | os.PathLike[str]) -> Path:
+    """pybullet_data's ``table/table.urdf`` without its visuals (:func:`_without_visuals`),
+    written into ``directory``: for loads with ``URDF_IGNORE_VISUAL_SHAPES``, which parse
+    the five visuals and then drop them. The same body (``tests/world/test_assets.py``
+    compares the two loads)."""
+    src = Path(data_path) / "table" / "table.urdf"
+    if not src.is_file():
+        msg = f"pybullet_data has no table at {src}; reinstall pybullet"
+        raise FileNotFoundError(msg)
+    data = _without_visuals(src.read_text("utf-8")).encode("utf-8")
+    digest = hashlib.sha256(data).hexdigest()[:16]
+    return write_atomically(directory / f"table_physics_{digest}.urdf", data)
+
+
 def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str], *,
                     lean_collision: bool = True, visuals: bool = True,
-                    bounds: bool = False) -> Path:
+                    bounds: bool = False, physics_only: bool = False) -> Path:
     """A Panda URDF whose visuals are its collision meshes, written into ``directory``.
 
     It is pybullet_data's ``franka_panda/panda.urdf`` with every ``package://meshes/...``
@@ -386,6 +417,9 @@ def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str], *,
     changes, ``tests/world/test_determinism.py`` compares the shapes and dynamics.
     ``bounds=True`` points the ``<collision>`` elements at :func:`bounding_points_obj`
     copies instead: hulls with the same bounding boxes, for an arm nothing touches.
+    ``physics_only=True`` leaves the visuals out altogether (:func:`_without_visuals`):
+    for a client without a renderer (``object_twin.physics_only_client``), where no
+    stand-in is drawn either, so the import has no visual mesh to build.
     """
     src = Path(data_path) / "franka_panda" / "panda.urdf"
     if not src.is_file():
@@ -402,7 +436,9 @@ def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str], *,
                           block.group(0))
 
         text = re.sub(r"<collision>.*?</collision>", lean, text, flags=re.DOTALL)
-    if not visuals:
+    if physics_only:
+        text = _without_visuals(text)
+    elif not visuals:
         text = re.sub(r"<visual>.*?</visual>", _STAND_IN_VISUAL, text, flags=re.DOTALL)
     text = text.replace("package://meshes/visual/", f"{mesh_dir}/")
     text = text.replace("package://meshes/collision/", f"{mesh_dir}/")

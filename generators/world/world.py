@@ -53,6 +53,7 @@ from nsrmp_bench.generators.world.assets import (
     create_shape_ids,
     ensure_dice_textures,
     lean_panda_urdf,
+    physics_table_urdf,
 )
 from nsrmp_bench.generators.world.object_twin import (
     ObjectTwin,
@@ -234,15 +235,20 @@ class World:
         self._panda_urdf = (str(lean_panda_urdf(self._assets, self._data_path,
                                                 lean_collision=lean_reset))
                             if lean else "franka_panda/panda.urdf")
-        # the arm of an instance begun without scenery visuals: 1 mm boxes for visuals
-        # (with URDF_IGNORE_VISUAL_SHAPES PyBullet would tessellate the hulls instead)
-        self._bare_panda_urdf = (str(lean_panda_urdf(self._assets, self._data_path,
-                                                     visuals=False))
-                                 if lean and lean_reset else None)
-        # and of an instance where nothing touches the arm (begin's robot_collision)
-        self._bounds_panda_urdf = (str(lean_panda_urdf(self._assets, self._data_path,
-                                                       visuals=False, bounds=True))
-                                   if lean and lean_reset else None)
+        # the arm of an instance begun without scenery visuals, by (loaded in the
+        # physics-only client, hulls reduced to their bounds: begin's robot_collision):
+        # where a renderer could draw it, 1 mm boxes for visuals (with
+        # URDF_IGNORE_VISUAL_SHAPES PyBullet would tessellate the hulls instead); in the
+        # physics-only client, which draws nothing, no visuals at all
+        self._bare_panda_urdfs: dict[tuple[bool, bool], str] = {
+            (physics, bounds): str(lean_panda_urdf(self._assets, self._data_path,
+                                                   visuals=False, bounds=bounds,
+                                                   physics_only=physics))
+            for physics in ((False, True) if self.object_twin else (False,))
+            for bounds in (False, True)} if lean and lean_reset else {}
+        # the table of an instance begun without scenery visuals: no visuals to parse
+        self._bare_table_urdf = (str(physics_table_urdf(self._assets, self._data_path))
+                                 if lean_reset else "table/table.urdf")
         pb = self.pb
         self.client: int = pb.connect(pb.DIRECT)
         if self.client < 0:
@@ -297,8 +303,9 @@ class World:
         if self.config.floor:
             self.plane = pb.loadURDF("plane.urdf", [0.0, 0.0, 0.0], useFixedBase=True,
                                      flags=flags, physicsClientId=c)
-        self.table = pb.loadURDF("table/table.urdf", [0.0, 0.0, 0.0], useFixedBase=True,
-                                 flags=flags, physicsClientId=c)
+        self.table = pb.loadURDF("table/table.urdf" if visuals else self._bare_table_urdf,
+                                 [0.0, 0.0, 0.0], useFixedBase=True, flags=flags,
+                                 physicsClientId=c)
         for static in (self.plane, self.table):
             if static is not None:
                 pb.setCollisionFilterGroupMask(static, -1, GROUP_SCENERY, GROUP_OBJECT,
@@ -322,10 +329,12 @@ class World:
         pb, c = self.pb, self.client
         orn = pb.getQuaternionFromEuler([0.0, 0.0, -math.pi / 2.0])
         urdf = self._panda_urdf
-        if flags & pb.URDF_IGNORE_VISUAL_SHAPES and self._bare_panda_urdf is not None:
-            urdf, flags = self._bare_panda_urdf, flags & ~pb.URDF_IGNORE_VISUAL_SHAPES
-            if not robot_collision and self._bounds_panda_urdf is not None:
-                urdf, self.robot_collision = self._bounds_panda_urdf, False
+        if flags & pb.URDF_IGNORE_VISUAL_SHAPES and self._bare_panda_urdfs:
+            physics_only = c == self._lean_client
+            urdf = self._bare_panda_urdfs[physics_only, not robot_collision]
+            self.robot_collision = robot_collision
+            if not physics_only:  # the stand-ins are drawn instead of the hulls
+                flags &= ~pb.URDF_IGNORE_VISUAL_SHAPES
         body = pb.loadURDF(urdf, list(PANDA_BASE), orn, useFixedBase=True, flags=flags,
                            physicsClientId=c)
         self.panda = int(body)
@@ -366,7 +375,7 @@ class World:
         bodies: list[int] = []
         for slot, obj in enumerate(objects):
             if obj.shape not in shapes:
-                shapes[obj.shape] = create_shape_ids(pb, c, obj.shape)
+                shapes[obj.shape] = create_shape_ids(pb, c, obj.shape, visual=visuals)
             park = (_PARK_ORIGIN[0] + _PARK_SPACING * slot, _PARK_ORIGIN[1], _PARK_ORIGIN[2])
             body = int(pb.createMultiBody(
                 baseMass=OBJECT_DYNAMICS["mass"],
@@ -429,13 +438,16 @@ class World:
         measured to leak history into the results.
 
         ``scenery_visuals=False`` loads the table, floor and Panda without their own
-        visual shapes (``URDF_IGNORE_VISUAL_SHAPES``): the same bodies, collision shapes
-        and physics, drawn with plain stand-ins that PyBullet makes from the collision
-        shapes. A composite render over a cached background hides the scenery anyway, so
-        its pixels are the same, and the reset no longer decodes the table's 0.9 MB
-        texture five times (measured: the table's load drops from ~45% of the reset to
-        ~1%). Full renders and :meth:`prepare_background` raise until the next ``begin``
-        with visuals. Ignored (visuals always loaded) when ``lean_reset`` is off.
+        visual shapes (``URDF_IGNORE_VISUAL_SHAPES``; the table and, in the physics-only
+        client of ``object_twin``, the arm from copies of their files with no visuals to
+        parse, :func:`~nsrmp_bench.generators.world.assets.physics_table_urdf`): the same
+        bodies, collision shapes and physics, drawn with plain stand-ins that PyBullet
+        makes from the collision shapes where a renderer draws them. A composite render
+        over a cached background hides the scenery anyway, so its pixels are the same,
+        and the reset no longer decodes the table's 0.9 MB texture five times (measured:
+        the table's load drops from ~45% of the reset to ~1%). Full renders and
+        :meth:`prepare_background` raise until the next ``begin`` with visuals. Ignored
+        (visuals always loaded) when ``lean_reset`` is off.
 
         ``robot_collision=False`` (with ``scenery_visuals=False``) builds each of the arm's
         collision hulls from the six points that bound it

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
 
@@ -16,11 +17,13 @@ from world_scenes import on_table, scene_of  # noqa: E402
 from nsrmp_bench.generators.world.assets import (  # noqa: E402
     DICE_FACE_PIPS,
     asset_cache_dir,
+    create_shape_ids,
     dice_mesh,
     dice_texture,
     ensure_dice_textures,
     lean_panda_urdf,
     lego_parts,
+    physics_table_urdf,
     silhouette_points,
 )
 from nsrmp_bench.vocabulary import COLOURS, EXTENTS, SHAPES, TABLE_TOP_Z  # noqa: E402
@@ -81,6 +84,51 @@ def test_lean_panda_urdf_keeps_collision_meshes_only(tmp_path: Path) -> None:
     meshes = [line.split('"')[1] for line in text.splitlines() if "<mesh filename=" in line]
     assert meshes and all(Path(m).is_file() for m in meshes)
     assert lean_panda_urdf(tmp_path, pybullet_data.getDataPath()) == path  # cached
+
+
+def _elements(path: Path) -> list[tuple[str, dict[str, str]]]:
+    """Every element of a URDF but its visuals (and what they hold), in document order."""
+    root = ET.parse(path).getroot()
+    for parent in list(root.iter()):
+        for child in [c for c in parent if c.tag == "visual"]:
+            parent.remove(child)
+    return [(el.tag, dict(el.attrib)) for el in root.iter()]
+
+
+def test_physics_only_urdfs_are_the_files_without_their_visuals(tmp_path: Path) -> None:
+    import pybullet_data
+
+    data = pybullet_data.getDataPath()
+    table = physics_table_urdf(tmp_path, data)
+    panda = lean_panda_urdf(tmp_path, data, visuals=False, bounds=True, physics_only=True)
+    stand_ins = lean_panda_urdf(tmp_path, data, visuals=False, bounds=True)
+    for path in (table, panda):
+        text = path.read_text()
+        assert "<visual" not in text and "<!--" not in text and "\n " not in text, path
+    assert _elements(table) == _elements(Path(data) / "table" / "table.urdf")
+    assert _elements(panda) == _elements(stand_ins)
+    assert "<visual>" in stand_ins.read_text()
+    assert physics_table_urdf(tmp_path, data) == table  # named by content: cached
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_shapes_without_visuals_collide_as_with_them(shape: str) -> None:
+    import pybullet as pb
+
+    c = pb.connect(pb.DIRECT)
+    try:
+        both = create_shape_ids(pb, c, shape)
+        bare = create_shape_ids(pb, c, shape, visual=False)
+        assert both.visual >= 0 and bare.visual == -1
+        bodies = [pb.createMultiBody(baseMass=0.1, baseCollisionShapeIndex=ids.collision,
+                                     physicsClientId=c) for ids in (both, bare)]
+        a, b = ([[d[1:] for d in pb.getCollisionShapeData(body, -1, physicsClientId=c)],
+                 pb.getAABB(body, -1, physicsClientId=c),
+                 pb.getDynamicsInfo(body, -1, physicsClientId=c)] for body in bodies)
+        assert a == b
+        assert pb.getNumBodies(physicsClientId=c) == 2
+    finally:
+        pb.disconnect(physicsClientId=c)
 
 
 def test_asset_cache_is_versioned_and_textures_are_reused(tmp_path: Path) -> None:

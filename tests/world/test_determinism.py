@@ -89,25 +89,38 @@ def test_an_instance_realised_after_another_equals_it_realised_first() -> None:
 
 def test_the_lean_reset_loads_the_same_collision_shapes() -> None:
     """The Panda's collision meshes read from copies that hold only what Bullet's collision
-    import reads, and 1 mm boxes for its visuals, give the same hulls (vertices in the
-    same order), boxes, dynamics and joints as the shipped files."""
+    import reads, with no visuals in the physics-only client (1 mm boxes where a renderer
+    could draw it), and the table without its visuals, give the same hulls (vertices in
+    the same order), shapes, boxes, dynamics and joints as the shipped files."""
     from nsrmp_bench.generators.world.world import World
 
     def shapes(world: World) -> list[object]:
-        pb, c, body = world.pb, world.client, world.panda
+        pb, c = world.pb, world.client
         out: list[object] = []
-        for link in range(-1, pb.getNumJoints(body, physicsClientId=c)):
-            out.append(pb.getMeshData(body, link, physicsClientId=c))
-            out.append(pb.getAABB(body, link, physicsClientId=c))
-            out.append(pb.getDynamicsInfo(body, link, physicsClientId=c))
-            if link >= 0:
-                out.append(pb.getJointInfo(body, link, physicsClientId=c))
+        for body in (world.table, world.panda):
+            for link in range(-1, pb.getNumJoints(body, physicsClientId=c)):
+                out.append(pb.getMeshData(body, link, physicsClientId=c))
+                # type, dimensions and frame (not the mesh's file name: a lean copy)
+                out.append([(*d[:4], *d[5:]) for d in
+                            pb.getCollisionShapeData(body, link, physicsClientId=c)])
+                out.append(pb.getAABB(body, link, physicsClientId=c))
+                out.append(pb.getDynamicsInfo(body, link, physicsClientId=c))
+                if link >= 0:
+                    out.append(pb.getJointInfo(body, link, physicsClientId=c))
         return out
 
-    with World(lean_reset=False) as shipped, World() as lean:
+    with World(lean_reset=False) as shipped, World() as lean, \
+            World(object_twin=False) as drawn:
+        want = shapes(shipped)
         lean.begin((), scenery_visuals=False)
-        assert lean.panda is not None
-        assert shapes(lean) == shapes(shipped)
+        drawn.begin((), scenery_visuals=False)
+        assert lean.panda is not None and lean.client != lean.render_client
+        assert drawn.client == drawn.render_client  # a client with a renderer
+        pb = lean.pb
+        assert all(pb.getBodyInfo(b, physicsClientId=w.client)[1] in (b"panda", b"table.urdf")
+                   for w in (lean, drawn) for b in (w.table, w.panda))
+        assert shapes(lean) == want
+        assert shapes(drawn) == want
         meshes = [m for m in shapes(lean) if isinstance(m, tuple) and len(m) == 2
                   and isinstance(m[1], tuple) and m[1] and isinstance(m[1][0], tuple)]
         assert sum(len(m[1]) for m in meshes) > 1000  # the hulls' vertices were compared
