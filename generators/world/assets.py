@@ -382,10 +382,14 @@ def bounding_points_obj(src: Path, directory: Path) -> Path:
 def _without_visuals(text: str) -> str:
     """URDF ``text`` with no ``<visual>`` element, comment or indentation: what a load in
     a client without a renderer builds from (the same links, joints, inertias, contact
-    parameters and collision shapes; the XML parse only has less to read)."""
+    parameters and collision shapes; the XML parse only has less to read).
+
+    One element per line, not one line: PyBullet reads a URDF line by line and breaks a
+    line after 8,191 characters, mid-attribute (the arm's file holds the asset cache's
+    absolute paths, so its length depends on where the cache is)."""
     text = re.sub(r"<visual>.*?</visual>", "", text, flags=re.DOTALL)
     text = re.sub(r"<!--.*?-->", "", text, flags=re.DOTALL)
-    return re.sub(r">\s+<", "><", text).strip() + "\n"
+    return re.sub(r">\s+<", ">\n<", text).strip() + "\n"
 
 
 def physics_table_urdf(directory: Path, data_path: str | os.PathLike[str]) -> Path:

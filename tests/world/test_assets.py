@@ -111,6 +111,42 @@ def test_physics_only_urdfs_are_the_files_without_their_visuals(tmp_path: Path) 
     assert physics_table_urdf(tmp_path, data) == table  # named by content: cached
 
 
+@pytest.mark.parametrize("bounds", [False, True])
+def test_the_physics_only_arm_loads_as_the_stand_in_one_wherever_the_cache_is(
+        tmp_path: Path, bounds: bool) -> None:
+    """PyBullet reads a URDF line by line and breaks lines after 8,191 characters: the
+    arm's file, which holds the cache's absolute paths, must load the same from a cache
+    deep in the file system (a file on one line broke joints and limits there)."""
+    import pybullet as pb
+    import pybullet_data
+
+    from nsrmp_bench.generators.world.object_twin import physics_only_client
+
+    data = pybullet_data.getDataPath()
+    deep = tmp_path / ("d" * 200) / ("e" * 200)
+    deep.mkdir(parents=True)
+    bare = lean_panda_urdf(deep, data, visuals=False, bounds=bounds, physics_only=True)
+    assert max(len(line) for line in bare.read_text().splitlines()) < 1024
+    stand_ins = lean_panda_urdf(deep, data, visuals=False, bounds=bounds)
+    c = physics_only_client(pb)
+    try:
+        def links(path: Path, flags: int) -> list[object]:
+            body = pb.loadURDF(str(path), useFixedBase=True, flags=flags, physicsClientId=c)
+            out: list[object] = []
+            for link in range(-1, pb.getNumJoints(body, physicsClientId=c)):
+                out.append(pb.getAABB(body, link, physicsClientId=c))
+                out.append(pb.getDynamicsInfo(body, link, physicsClientId=c))
+                if link >= 0:
+                    out.append(pb.getJointInfo(body, link, physicsClientId=c))
+            return out
+
+        got = links(bare, pb.URDF_IGNORE_VISUAL_SHAPES)
+        assert len(got) == 13 * 3 - 1  # the base and 12 links: box and dynamics, joints
+        assert got == links(stand_ins, 0)
+    finally:
+        pb.disconnect(physicsClientId=c)
+
+
 @pytest.mark.parametrize("shape", SHAPES)
 def test_shapes_without_visuals_collide_as_with_them(shape: str) -> None:
     import pybullet as pb

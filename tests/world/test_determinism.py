@@ -109,16 +109,35 @@ def test_the_lean_reset_loads_the_same_collision_shapes() -> None:
                     out.append(pb.getJointInfo(body, link, physicsClientId=c))
         return out
 
+    class Loads:
+        """PyBullet, with the files ``loadURDF`` was given noted."""
+
+        def __init__(self, pb: Any) -> None:
+            self.pb, self.files = pb, []
+
+        def __getattr__(self, name: str) -> Any:
+            return getattr(self.pb, name)
+
+        def loadURDF(self, path: str, *args: Any, **kwargs: Any) -> Any:
+            self.files.append(Path(path).name)
+            return self.pb.loadURDF(path, *args, **kwargs)
+
     with World(lean_reset=False) as shipped, World() as lean, \
             World(object_twin=False) as drawn:
         want = shapes(shipped)
-        lean.begin((), scenery_visuals=False)
-        drawn.begin((), scenery_visuals=False)
+        for world in (lean, drawn):
+            world.pb = Loads(world.pb)
+            world.begin((), scenery_visuals=False)
         assert lean.panda is not None and lean.client != lean.render_client
         assert drawn.client == drawn.render_client  # a client with a renderer
-        pb = lean.pb
-        assert all(pb.getBodyInfo(b, physicsClientId=w.client)[1] in (b"panda", b"table.urdf")
-                   for w in (lean, drawn) for b in (w.table, w.panda))
+        # the physics-only client: both files without visuals; with a renderer, the
+        # table without visuals and the arm with its stand-ins
+        assert lean.pb.files[0].startswith("table_physics_"), lean.pb.files
+        assert drawn.pb.files[0].startswith("table_physics_"), drawn.pb.files
+        assert "<visual" not in Path(lean._bare_panda_urdfs[True, False]).read_text()
+        assert "<visual>" in Path(drawn._bare_panda_urdfs[False, False]).read_text()
+        assert lean.pb.files[1] == Path(lean._bare_panda_urdfs[True, False]).name
+        assert drawn.pb.files[1] == Path(drawn._bare_panda_urdfs[False, False]).name
         assert shapes(lean) == want
         assert shapes(drawn) == want
         meshes = [m for m in shapes(lean) if isinstance(m, tuple) and len(m) == 2
