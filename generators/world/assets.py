@@ -114,6 +114,13 @@ def write_atomically(path: Path, data: bytes) -> Path:
     return path
 
 
+def write_content_named(directory: Path, stem: str, suffix: str, data: bytes) -> Path:
+    """``data`` written into ``directory`` as ``<stem>_<its sha256, 16 hex><suffix>``
+    (:func:`write_atomically`: kept if already there)."""
+    digest = hashlib.sha256(data).hexdigest()[:16]
+    return write_atomically(directory / f"{stem}_{digest}{suffix}", data)
+
+
 # -- dice ------------------------------------------------------------------------------
 _PIP_LAYOUT: Final[dict[int, tuple[tuple[float, float], ...]]] = {
     1: ((0.5, 0.5),),
@@ -157,9 +164,7 @@ def ensure_dice_textures(directory: Path) -> dict[str, Path]:
         if not ok:  # pragma: no cover - cv2 always encodes uint8 PNGs
             msg = f"could not encode the {colour} dice texture as PNG"
             raise RuntimeError(msg)
-        data = bytes(buf)
-        digest = hashlib.sha256(data).hexdigest()[:16]
-        paths[colour] = write_atomically(directory / f"dice_{colour}_{digest}.png", data)
+        paths[colour] = write_content_named(directory, f"dice_{colour}", ".png", bytes(buf))
     return paths
 
 
@@ -323,8 +328,7 @@ def collision_obj(src: Path, directory: Path) -> Path:
         elif head in ("f ", "f\t"):
             out.append("f " + " ".join(t.split("/", 1)[0] for t in token[2:].split()))
     data = ("\n".join(out) + "\n").encode("utf-8")
-    digest = hashlib.sha256(data).hexdigest()[:16]
-    return write_atomically(directory / f"{src.stem}_collision_{digest}.obj", data)
+    return write_content_named(directory, f"{src.stem}_collision", ".obj", data)
 
 
 _STAND_IN_VISUAL: Final = '<visual><geometry><box size="0.001 0.001 0.001"/></geometry></visual>'
@@ -375,8 +379,7 @@ def bounding_points_obj(src: Path, directory: Path) -> Path:
         out += [name, *chosen]
         out += [f"f {idx[k]} {idx[k + 1]} {idx[k + 2]}" for k in range(0, len(idx), 3)]
     data = ("\n".join(out) + "\n").encode("utf-8")
-    digest = hashlib.sha256(data).hexdigest()[:16]
-    return write_atomically(directory / f"{src.stem}_bounds_{digest}.obj", data)
+    return write_content_named(directory, f"{src.stem}_bounds", ".obj", data)
 
 
 def _without_visuals(text: str) -> str:
@@ -392,23 +395,24 @@ def _without_visuals(text: str) -> str:
     return re.sub(r">\s+<", ">\n<", text).strip() + "\n"
 
 
-def physics_table_urdf(directory: Path, data_path: str | os.PathLike[str]) -> Path:
-    """pybullet_data's ``table/table.urdf`` without its visuals (:func:`_without_visuals`),
-    written into ``directory``: for loads with ``URDF_IGNORE_VISUAL_SHAPES``, which parse
-    the five visuals and then drop them. The same body (``tests/world/test_assets.py``
-    compares the two loads)."""
-    src = Path(data_path) / "table" / "table.urdf"
+def physics_urdf(src: Path, directory: Path) -> Path:
+    """The URDF ``src`` without its visuals (:func:`_without_visuals`), written into
+    ``directory`` as ``<its stem>_physics_<hash>.urdf``: the same body for a load that
+    draws nothing. For pybullet_data's table (loaded with ``URDF_IGNORE_VISUAL_SHAPES``,
+    which parses its five visuals and then drops them) and for :func:`lean_panda_urdf`'s
+    arm in a client without a renderer (``object_twin.physics_only_client``), where its
+    stand-in visuals would still be made into meshes. ``tests/world`` compares the loads."""
     if not src.is_file():
-        msg = f"pybullet_data has no table at {src}; reinstall pybullet"
+        msg = (f"no URDF at {src}; pybullet_data's files come with pybullet (reinstall "
+               "it), the asset cache's are made again by World()")
         raise FileNotFoundError(msg)
     data = _without_visuals(src.read_text("utf-8")).encode("utf-8")
-    digest = hashlib.sha256(data).hexdigest()[:16]
-    return write_atomically(directory / f"table_physics_{digest}.urdf", data)
+    return write_content_named(directory, f"{src.stem}_physics", ".urdf", data)
 
 
 def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str], *,
                     lean_collision: bool = True, visuals: bool = True,
-                    bounds: bool = False, physics_only: bool = False) -> Path:
+                    bounds: bool = False) -> Path:
     """A Panda URDF whose visuals are its collision meshes, written into ``directory``.
 
     It is pybullet_data's ``franka_panda/panda.urdf`` with every ``package://meshes/...``
@@ -421,9 +425,7 @@ def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str], *,
     changes, ``tests/world/test_determinism.py`` compares the shapes and dynamics.
     ``bounds=True`` points the ``<collision>`` elements at :func:`bounding_points_obj`
     copies instead: hulls with the same bounding boxes, for an arm nothing touches.
-    ``physics_only=True`` leaves the visuals out altogether (:func:`_without_visuals`):
-    for a client without a renderer (``object_twin.physics_only_client``), where no
-    stand-in is drawn either, so the import has no visual mesh to build.
+    :func:`physics_urdf` of the file leaves the visuals out altogether.
     """
     src = Path(data_path) / "franka_panda" / "panda.urdf"
     if not src.is_file():
@@ -440,12 +442,8 @@ def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str], *,
                           block.group(0))
 
         text = re.sub(r"<collision>.*?</collision>", lean, text, flags=re.DOTALL)
-    if physics_only:
-        text = _without_visuals(text)
-    elif not visuals:
+    if not visuals:
         text = re.sub(r"<visual>.*?</visual>", _STAND_IN_VISUAL, text, flags=re.DOTALL)
     text = text.replace("package://meshes/visual/", f"{mesh_dir}/")
     text = text.replace("package://meshes/collision/", f"{mesh_dir}/")
-    data = text.encode("utf-8")
-    digest = hashlib.sha256(data).hexdigest()[:16]
-    return write_atomically(directory / f"panda_lean_{digest}.urdf", data)
+    return write_content_named(directory, "panda_lean", ".urdf", text.encode("utf-8"))

@@ -53,7 +53,7 @@ from nsrmp_bench.generators.world.assets import (
     create_shape_ids,
     ensure_dice_textures,
     lean_panda_urdf,
-    physics_table_urdf,
+    physics_urdf,
 )
 from nsrmp_bench.generators.world.object_twin import (
     ObjectTwin,
@@ -240,15 +240,19 @@ class World:
         # where a renderer could draw it, 1 mm boxes for visuals (with
         # URDF_IGNORE_VISUAL_SHAPES PyBullet would tessellate the hulls instead); in the
         # physics-only client, which draws nothing, no visuals at all
-        self._bare_panda_urdfs: dict[tuple[bool, bool], str] = {
-            (physics, bounds): str(lean_panda_urdf(self._assets, self._data_path,
-                                                   visuals=False, bounds=bounds,
-                                                   physics_only=physics))
-            for physics in ((False, True) if self.object_twin else (False,))
-            for bounds in (False, True)} if lean and lean_reset else {}
+        self._bare_panda_urdfs: dict[tuple[bool, bool], str] = {}
+        if lean and lean_reset:
+            for bounds in (False, True):
+                stand_ins = lean_panda_urdf(self._assets, self._data_path, visuals=False,
+                                            bounds=bounds)
+                self._bare_panda_urdfs[False, bounds] = str(stand_ins)
+                if self.object_twin:
+                    self._bare_panda_urdfs[True, bounds] = str(physics_urdf(stand_ins,
+                                                                            self._assets))
         # the table of an instance begun without scenery visuals: no visuals to parse
-        self._bare_table_urdf = (str(physics_table_urdf(self._assets, self._data_path))
-                                 if lean_reset else "table/table.urdf")
+        self._bare_table_urdf = (
+            str(physics_urdf(Path(self._data_path) / "table" / "table.urdf", self._assets))
+            if lean_reset else "table/table.urdf")
         pb = self.pb
         self.client: int = pb.connect(pb.DIRECT)
         if self.client < 0:
@@ -440,7 +444,7 @@ class World:
         ``scenery_visuals=False`` loads the table, floor and Panda without their own
         visual shapes (``URDF_IGNORE_VISUAL_SHAPES``; the table and, in the physics-only
         client of ``object_twin``, the arm from copies of their files with no visuals to
-        parse, :func:`~nsrmp_bench.generators.world.assets.physics_table_urdf`): the same
+        parse, :func:`~nsrmp_bench.generators.world.assets.physics_urdf`): the same
         bodies, collision shapes and physics, drawn with plain stand-ins that PyBullet
         makes from the collision shapes where a renderer draws them. A composite render
         over a cached background hides the scenery anyway, so its pixels are the same,

@@ -23,7 +23,7 @@ from nsrmp_bench.generators.world.assets import (  # noqa: E402
     ensure_dice_textures,
     lean_panda_urdf,
     lego_parts,
-    physics_table_urdf,
+    physics_urdf,
     silhouette_points,
 )
 from nsrmp_bench.vocabulary import COLOURS, EXTENTS, SHAPES, TABLE_TOP_Z  # noqa: E402
@@ -99,16 +99,17 @@ def test_physics_only_urdfs_are_the_files_without_their_visuals(tmp_path: Path) 
     import pybullet_data
 
     data = pybullet_data.getDataPath()
-    table = physics_table_urdf(tmp_path, data)
-    panda = lean_panda_urdf(tmp_path, data, visuals=False, bounds=True, physics_only=True)
+    shipped_table = Path(data) / "table" / "table.urdf"
+    table = physics_urdf(shipped_table, tmp_path)
     stand_ins = lean_panda_urdf(tmp_path, data, visuals=False, bounds=True)
+    panda = physics_urdf(stand_ins, tmp_path)
     for path in (table, panda):
         text = path.read_text()
         assert "<visual" not in text and "<!--" not in text and "\n " not in text, path
-    assert _elements(table) == _elements(Path(data) / "table" / "table.urdf")
+    assert _elements(table) == _elements(shipped_table)
     assert _elements(panda) == _elements(stand_ins)
     assert "<visual>" in stand_ins.read_text()
-    assert physics_table_urdf(tmp_path, data) == table  # named by content: cached
+    assert physics_urdf(shipped_table, tmp_path) == table  # named by content: cached
 
 
 @pytest.mark.parametrize("bounds", [False, True])
@@ -125,9 +126,9 @@ def test_the_physics_only_arm_loads_as_the_stand_in_one_wherever_the_cache_is(
     data = pybullet_data.getDataPath()
     deep = tmp_path / ("d" * 200) / ("e" * 200)
     deep.mkdir(parents=True)
-    bare = lean_panda_urdf(deep, data, visuals=False, bounds=bounds, physics_only=True)
-    assert max(len(line) for line in bare.read_text().splitlines()) < 1024
     stand_ins = lean_panda_urdf(deep, data, visuals=False, bounds=bounds)
+    bare = physics_urdf(stand_ins, deep)
+    assert max(len(line) for line in bare.read_text().splitlines()) < 1024
     c = physics_only_client(pb)
     try:
         def links(path: Path, flags: int) -> list[object]:
