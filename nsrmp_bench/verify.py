@@ -25,6 +25,7 @@ from nsrmp_bench.dispatch import DISPATCH_KEYS
 from nsrmp_bench.engine import Engine, InlineEngine, TaskReport, in_task_order
 from nsrmp_bench.errors import DataIntegrityError, NSRMPError
 from nsrmp_bench.official_manifests import official_manifest
+from nsrmp_bench.plurals import counted
 from nsrmp_bench.split_specs import SplitSpec, withdrawal
 from nsrmp_bench.storage.hashing import episode_hash, root_hash
 from nsrmp_bench.storage.manifest import Manifest, read_manifest
@@ -49,6 +50,9 @@ class VerifyReport:
     root_hash: str = ""
     committed_root_hash: str | None = None
     within_tolerance: bool = False
+    identical_files: int | None = None
+    """Shard files whose sha256 and size equal the committed manifest's shard of the same
+    name (None without a committed manifest)."""
     problems: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
 
@@ -189,6 +193,23 @@ def check_shard(part_dir: str, shard: ShardRecord, deep: bool, *,
     return ShardCheck(hashes, summaries, len(hashes), problems)
 
 
+def identical_files(manifest: Manifest, committed: dict[str, Any]) -> int:
+    """How many of ``manifest``'s shard files have the sha256 and size of the committed
+    manifest's shard of the same name."""
+    theirs = {str(s["file"]): (str(s["sha256"]), int(s["bytes"]))
+              for s in committed.get("shards", [])}
+    return sum(1 for s in manifest.shards if theirs.get(s.file) == (s.sha256, s.bytes))
+
+
+def _files_note(same: int, here: int, committed: int) -> str:
+    """Whether the files, not only the episodes, are the committed ones."""
+    if same == here == committed:
+        return f"every shard file is byte for byte the committed one ({counted(same, 'shard')})"
+    return (f"{same} of {counted(here, 'shard file')} here are byte for byte the committed "
+            f"ones ({committed} committed): the episodes are the same, the files are not "
+            "(another --shard-size, or another h5py/HDF5 laying the files out)")
+
+
 def _spec_problem(manifest: Manifest, spec: SplitSpec) -> str | None:
     """Why the data was not generated from ``spec``, or None."""
     split_id = manifest.split.partition("/")[0]
@@ -243,7 +264,11 @@ def verify(
                             + _withdrawn_note(split_id))
         return report
     report.committed_root_hash = str(committed["root_hash"])
+    report.identical_files = identical_files(manifest, committed)
     if report.committed_root_hash == report.root_hash:
+        if not report.problems:
+            report.notes.append(_files_note(report.identical_files, len(manifest.shards),
+                                            len(committed.get("shards", []))))
         return report
     files_ok = not report.problems
     cmp = compare_with_committed(

@@ -176,16 +176,22 @@ def generate_alone(spec: SplitSpec, part: str, n: int, timed: TimedWorld) -> tup
 
 
 def end_to_end(spec: SplitSpec, part: str, n: int, timed: TimedWorld,
-               background: Background) -> tuple[float, float]:
+               background: Background) -> tuple[float, float, float, float]:
     """(wall, CPU) seconds per episode of making the first ``n`` instances into a committed
-    shard. The CPU time counts the writer thread or process (and forked children) too."""
+    shard, then the wall seconds the caller spent opening the writer (a writer process's
+    fork) and in its commit (what was left to write, the file's fsync and hash). The CPU
+    time counts the writer thread or process (and forked children) too."""
     with tempfile.TemporaryDirectory(prefix="bench-generate-") as out:
         wall, cpu = time.perf_counter(), cpu_s()
         with ShardWriter(out, 0, n, split=f"{spec.id}/{part}", background=background) as w:
+            opened = time.perf_counter()
             for i in range(n):
                 w.add(timed.episode(spec, part, i))
+            committing = time.perf_counter()
             w.commit()
-        return (time.perf_counter() - wall) / n, (cpu_s() - cpu) / n
+            done = time.perf_counter()
+        return ((time.perf_counter() - wall) / n, (cpu_s() - cpu) / n, opened - wall,
+                done - committing)
 
 
 def alternate(repeat: int, runs: dict[str, Callable[[], Any]]) -> dict[str, list[Any]]:
@@ -375,19 +381,21 @@ def writer_ablation(spec: SplitSpec, part: str, n: int, repeat: int,
     the writer (the writer before either change); and generating alone."""
     timed = TimedWorld(World(official_camera(*image)))
     timed.episode(spec, part, 0)
-    free, put = Handover.free, writer_module._put_image
+    free, idle, put = Handover.free, Handover.idle, writer_module._put_image
 
     def hdf5_filter(group: Any, path: str, name: str, arr: Any, kw: Any, _: Any) -> None:
         h5_objects.dataset(group, name, arr, kw)
 
-    def variant(share: bool, python_zlib: bool) -> Callable[[], tuple[float, float]]:
-        def run() -> tuple[float, float]:
+    def variant(share: bool, python_zlib: bool) -> Callable[[], tuple[float, ...]]:
+        def run() -> tuple[float, ...]:
             Handover.free = free if share else lambda self: True  # type: ignore[method-assign]
+            Handover.idle = idle if share else lambda self: True  # type: ignore[method-assign]
             writer_module._put_image = put if python_zlib else hdf5_filter
             try:
                 return end_to_end(spec, part, n, timed, "process")
             finally:
-                Handover.free, writer_module._put_image = free, put  # type: ignore[method-assign]
+                Handover.free, Handover.idle = free, idle  # type: ignore[method-assign]
+                writer_module._put_image = put
         return run
 
     rows = alternate(repeat, {"shipped": variant(True, True),
@@ -510,6 +518,10 @@ def main() -> None:
             pairwise = [a[k] / b[k] for b, a in zip(e2e[name], e2e["after"], strict=True)]
             print(f"        {name} against after, speed pair by pair: {med(pairwise):.2f}x "
                   f"({min(pairwise):.2f}-{max(pairwise):.2f})")
+    after = e2e["after"]
+    print(f"  after, the shard's start (the writer process's fork) "
+          f"{med([r[2] for r in after]) * 1e3:.1f} ms and commit (the writing left, the "
+          f"file's fsync and hash) {med([r[3] for r in after]) * 1e3:.1f} ms, wall")
 
     if args.large > 0:
         big = official_camera(1024, 768)
@@ -521,7 +533,7 @@ def main() -> None:
             worlds["forked"].forked = True
         for t in worlds.values():
             t.episode(spec, part, 0)
-        runs: dict[str, Callable[[], tuple[float, float]]] = {
+        runs: dict[str, Callable[[], tuple[float, ...]]] = {
             name: (lambda name=name, t=t: end_to_end(spec, part, args.large, t,
                                                      writer[name]))
             for name, t in worlds.items()}

@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import argparse
 import os
+import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TextIO
 
+from nsrmp_bench.canonical import sha256_file
 from nsrmp_bench.errors import InvalidArgument
 
 __all__ = [
@@ -29,6 +31,7 @@ __all__ = [
     "check_output_dir",
     "check_output_file",
     "fsync_dir",
+    "fsync_hashing",
     "output_dir",
     "output_file",
 ]
@@ -48,6 +51,30 @@ def fsync_dir(directory: Path) -> None:
         pass
     finally:
         os.close(fd)
+
+
+def fsync_hashing(path: Path) -> str:
+    """fsync the closed file ``path`` and return its hex sha256, the hash read while another
+    thread waits for the disk (both let go of the GIL): a shard's commit waits for the
+    longer of the two, not their sum. The bytes hashed are the file's, written or not yet."""
+    failed: list[BaseException] = []
+
+    def sync() -> None:
+        try:
+            with open(path, "rb+") as fh:
+                os.fsync(fh.fileno())
+        except BaseException as exc:  # raised below, in the caller's thread
+            failed.append(exc)
+
+    syncing = threading.Thread(target=sync, name=f"fsync {path.name}", daemon=True)
+    syncing.start()
+    try:
+        sha = sha256_file(path)
+    finally:
+        syncing.join()
+    if failed:
+        raise failed[0]
+    return sha
 
 
 def _file_above(path: Path) -> Path | None:

@@ -113,6 +113,18 @@ class Handover:
             return True
         return False
 
+    def idle(self) -> bool:
+        """Whether every slot is free: the child has released all it was handed (the
+        parent; the child only ever frees more)."""
+        taken = 0
+        try:
+            while taken < self.slots and self._free.acquire(block=False):
+                taken += 1
+        finally:
+            for _ in range(taken):
+                self._free.release()
+        return taken == self.slots
+
     def unpack(self, packed: Packed) -> Any:
         """The object :meth:`pack` packed; its large arrays are views of the slot (read-only
         when the packed ones were), valid until :meth:`release`."""

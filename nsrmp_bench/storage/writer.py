@@ -25,10 +25,19 @@ rest over a pipe. When the child lags (both slots hold episodes it has not writt
 the caller does not just wait: it compresses the image chunks of the episode it is
 handing over until a slot is free (:func:`~nsrmp_bench.storage.chunks.precompress`), and
 the child stores those as they are, so the work is shared between the two cores. The
+shard's last episode is compressed by the caller until the child has written the ones
+before it, since after it the caller would only wait. The caller does not wait for the
+child to open the file either: it makes the first episode meanwhile, and the first
+:meth:`ShardWriter.add` reports a child that could not. The
 child ends with the shard: it commits when told, and aborts
 (removes the ``.tmp``) when told to or when the caller's end of the pipe closes (the
-caller died). A daemonic process (a Dask worker) cannot have children; there it is a
-thread (:func:`writer_mode`).
+caller died); once its record has come, the caller leaves its exit to multiprocessing,
+which reaps it when the next writer starts or when asked for its children. A daemonic
+process (a Dask worker) cannot have children; there it is a thread (:func:`writer_mode`).
+
+Every writer's commit hashes the closed file while another thread fsyncs it
+(:func:`~nsrmp_bench.storage.atomic.fsync_hashing`): the commit waits for the longer of
+the two, not their sum.
 """
 
 from __future__ import annotations
@@ -51,12 +60,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nsrmp_bench import __version__
-from nsrmp_bench.canonical import canonical_json, sha256_file
+from nsrmp_bench.canonical import canonical_json
 from nsrmp_bench.dsl.program import load_signatures
 from nsrmp_bench.episode import SCHEMA_VERSION, Episode
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage import h5_objects
 from nsrmp_bench.storage.arrays import episode_arrays
+from nsrmp_bench.storage.atomic import fsync_hashing
 from nsrmp_bench.storage.chunks import (
     Compressed,
     filtered_chunk,
@@ -208,11 +218,11 @@ class ShardWriter:
         self._jobs: queue.Queue[Callable[[], None] | None] | None = None
         self._thread: threading.Thread | None = None
         self._error: BaseException | None = None
+        self.out_dir.mkdir(parents=True, exist_ok=True)  # a bad folder fails here, early
         if background == "process" and writer_mode() == "process":
             self._child = _Child(self.tmp_path, (os.fspath(out_dir), start, stop, split,
                                                  package_version))
             return
-        self.out_dir.mkdir(parents=True, exist_ok=True)
         self._f = h5py.File(self.tmp_path, "w", libver=LIBVER)
         self._f.attrs["format"] = FORMAT
         self._f.attrs["schema_version"] = SCHEMA_VERSION
@@ -298,7 +308,7 @@ class ShardWriter:
             msg = f"shard {self.file} covers indices [{self.start}, {self.stop}); got {index}"
             raise InvalidArgument(msg)
         if self._child is not None:  # its own caller compresses for it (compressed is None)
-            self._child.add(episode)
+            self._child.add(episode, last=index == self.stop - 1)
         elif self._jobs is not None:
             self._jobs.put(lambda: self._write(episode, index, compressed))
         else:
@@ -353,9 +363,7 @@ class ShardWriter:
         h5_objects.string_dataset(f.id, "index", index)
         f.close()
         self._f = None
-        with open(self.tmp_path, "rb+") as fh:
-            os.fsync(fh.fileno())
-        sha = sha256_file(self.tmp_path)
+        sha = fsync_hashing(self.tmp_path)
         size = self.tmp_path.stat().st_size
         os.replace(self.tmp_path, self.path)
         fsync_dir(self.out_dir)
@@ -384,7 +392,7 @@ class ShardWriter:
         if self._f is not None:
             self._f.close()
             self._f = None
-        self.tmp_path.unlink(missing_ok=True)
+        _remove_partial(self.tmp_path)
 
     def __enter__(self) -> ShardWriter:
         return self
@@ -399,6 +407,14 @@ class ShardWriter:
             self.abort()
         elif self._f is not None or (self._child is not None and not self._child.closed):
             self.commit()
+
+
+def _remove_partial(tmp_path: Path) -> None:
+    """Remove a shard's partial file; something else in its place (a folder: the writer
+    could not open its file there) is not the writer's to remove, and the error that
+    stopped the writer is what the caller sees."""
+    if not tmp_path.is_dir():
+        tmp_path.unlink(missing_ok=True)
 
 
 def writer_mode() -> Literal["process", "thread"]:
@@ -439,10 +455,9 @@ class _Child:
         self.closed = False
         self.chunks_compressed = 0  # image chunks compressed here while the child lagged
         self._error: tuple[bool, str] | None = None
-        ready = self._answer()
-        if ready[0] != "open":
-            self._finish()
-            self.raise_error()
+        # the child's "open" is read when the first episode is handed over (or at commit
+        # or abort), not here: the caller makes that episode while the child opens the file
+        self._opened = False
 
     def _answer(self) -> tuple[str, Any]:
         """The child's next message; a child that died without one is an error."""
@@ -454,21 +469,33 @@ class _Child:
                                     "without a word"))
         if msg[0] == "error":
             self._error = msg[1]
+        elif msg[0] == "open":
+            self._opened = True
         return msg
 
-    def add(self, episode: Episode) -> None:
+    def _open(self) -> None:
+        """Wait for the child to say it has opened the file, or raise what stopped it."""
+        if (not self._opened and not self.closed and self._error is None
+                and self._answer()[0] != "open"):
+            self._finish()
+        self.raise_error()
+
+    def add(self, episode: Episode, *, last: bool = False) -> None:
         """Hand ``episode`` over. While the child lags (both slots hold episodes it has
         not written), compress this episode's image chunks here rather than wait, until a
-        slot is free: the child stores those as they are (the same bytes)."""
-        self.raise_error()
+        slot is free: the child stores those as they are (the same bytes). The shard's
+        ``last`` episode is compressed here until the child has written every episode
+        before it: after it the caller would only wait for the commit."""
+        self._open()
         compressed: Compressed = {}
-        if not self._handover.free():
+        ready = self._handover.idle if last else self._handover.free
+        if not ready():
             try:
                 arrays = episode_arrays(episode)
             except InvalidArgument:  # the child refuses it, as when it does not lag
                 arrays = {}
             compressed = precompress(  # as many as still fit the slot beside the arrays
-                arrays, until=lambda: self._handover.free() or not self._proc.is_alive(),
+                arrays, until=lambda: ready() or not self._proc.is_alive(),
                 max_bytes=self._handover.room(a.nbytes for a in arrays.values()))
         item = (episode, compressed)
         try:
@@ -492,10 +519,13 @@ class _Child:
         raise RuntimeError(msg)  # _answer always records an error; kept as a guard
 
     def commit(self) -> ShardRecord:
+        self._open()
         with contextlib.suppress(BrokenPipeError, ConnectionResetError):
             self._episodes_w.send(("commit", None))
         msg = self._answer()
-        self._finish()
+        # with the record the shard is on disk and the child only exits: it is reaped by
+        # multiprocessing (the next writer's start, or at exit), not waited for here
+        self._finish(reap=msg[0] != "record")
         self.raise_error()
         record: ShardRecord = msg[1]
         return record
@@ -506,11 +536,12 @@ class _Child:
         with contextlib.suppress(BrokenPipeError, ConnectionResetError):
             self._episodes_w.send(("abort", None))
         self._finish()
-        self.tmp_path.unlink(missing_ok=True)
+        _remove_partial(self.tmp_path)
 
-    def _finish(self) -> None:
+    def _finish(self, *, reap: bool = True) -> None:
         self._episodes_w.close()
-        self._proc.join()
+        if reap:
+            self._proc.join()
         self._answer_r.close()
         self._handover.close()
         self.closed = True

@@ -64,6 +64,24 @@ def test_verify_passes_then_names_a_tampered_episode(smoke_dir: Path, tmp_path: 
     assert victim in text
 
 
+def test_verify_says_whether_the_shard_files_are_the_committed_ones(
+    smoke_dir: Path, tmp_path: Path
+) -> None:
+    """Generated as committed: the files too are the committed bytes. The same episodes in
+    shards of 8: verify passes (the episodes are the same) and says the files are not."""
+    from nsrmp_bench.generators.generate import generate_split
+
+    report = verify(smoke_dir / "test")
+    assert report.ok and report.identical_files == 1
+    assert "every shard file is byte for byte the committed one (1 shard)" in report.notes
+    generate_split("smoke-v2", tmp_path, workers=1, shard_size=8)
+    report = verify(tmp_path / "test")
+    assert report.ok and report.identical_files == 0
+    assert report.root_hash == report.committed_root_hash
+    assert any(n.startswith("0 of 2 shard files here are byte for byte the committed ones "
+                            "(1 committed)") for n in report.notes), report.notes
+
+
 def test_pack_and_download_verified_and_resumed(
     smoke_dir: Path, tmp_path: Path, server: tuple[str, Path, list[str]]
 ) -> None:

@@ -161,6 +161,22 @@ def test_free_says_whether_pack_would_wait_and_takes_no_slot() -> None:
     handover.close()
 
 
+def test_idle_says_whether_the_child_has_released_every_slot_and_takes_none() -> None:
+    handover = Handover(CTX, slots=2, slot_bytes=4 * 1024 * 1024)
+    assert handover.idle() and handover.idle()  # asking twice takes nothing
+    assert handover.pack(_objects(0)[0], lambda: None) is not None
+    assert handover.free() and not handover.idle()  # a slot left, but one is held
+    handover.release()
+    assert handover.idle()
+    assert handover.pack(_objects(1)[0], lambda: None) is not None  # the slots still turn
+    assert handover.pack(_objects(2)[0], lambda: None) is not None
+    assert not handover.free() and not handover.idle()
+    handover.release()
+    handover.release()
+    assert handover.idle()
+    handover.close()
+
+
 def test_room_counts_buffers_as_pack_lays_them_out() -> None:
     handover = Handover(CTX, slots=1, slot_bytes=4096)
     assert handover.room([]) == 4096

@@ -95,6 +95,59 @@ def test_a_caller_that_compresses_for_a_lagging_writer_process_writes_the_same_b
     assert _sha(tmp_path / record.file) == _sha(next(smoke_v2_test.glob("shard-*.h5")))
 
 
+def test_the_caller_compresses_the_last_episode_while_the_child_writes_the_one_before(
+    smoke_v2_test: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With two episodes a slot is always free, so only the rule for a shard's last
+    episode makes the caller compress: the child still sleeps over the first one, and
+    after the last the caller would only wait for the commit."""
+    with open_part(smoke_v2_test) as part:
+        episodes = [part.episode(i) for i in range(2)]
+    _slow_down_the_writer(monkeypatch)
+    w, record = _write_in_process(tmp_path, episodes)
+    last = sum(1 for _, _, arr, kw in image_datasets(episode_arrays(episodes[1]))
+               for _ in image_chunks(arr, kw))
+    assert w.chunks_compressed_here == last > 0
+    with ShardWriter(tmp_path / "sync", 0, 2, split="smoke-v2/test", background=False) as s:
+        for ep in episodes:
+            s.add(ep)
+        expected = s.commit()
+    assert _sha(tmp_path / record.file) == _sha(tmp_path / "sync" / expected.file)
+
+
+def test_a_writer_process_that_cannot_open_its_file_fails_the_first_add(
+    smoke_v2_test: Path, tmp_path: Path
+) -> None:
+    """The caller does not wait for the child to open the file (it makes the first episode
+    meanwhile); a child that could not is reported by the first add, naming the shard."""
+    with open_part(smoke_v2_test) as part:
+        first = part.episode(0)
+    (tmp_path / "shard-0000000-0000002.h5.tmp").mkdir()  # where the child's file must go
+    w = ShardWriter(tmp_path, 0, 2, split="smoke-v2/test", background="process")
+    with pytest.raises(RuntimeError, match=r"writing shard shard-0000000-0000002\.h5 failed"):
+        w.add(first)
+    w.abort()
+    assert not list(tmp_path.glob("*.h5"))
+
+
+def test_a_committed_writer_process_is_reaped(smoke_v2_test: Path, tmp_path: Path) -> None:
+    """commit returns with the record, without waiting for the child to exit; the child
+    is still reaped (multiprocessing does it when asked for its children, or when the
+    next writer starts) and exited cleanly."""
+    with open_part(smoke_v2_test) as part:
+        first = part.episode(0)
+    w = ShardWriter(tmp_path, 0, 1, split="smoke-v2/test", background="process")
+    assert w._child is not None
+    proc = w._child._proc
+    w.add(first)
+    w.commit()
+    deadline = time.monotonic() + 20.0
+    while proc in mp.active_children():  # each call reaps the children that have exited
+        assert time.monotonic() < deadline, "the committed writer process did not exit"
+        time.sleep(0.01)
+    assert proc.exitcode == 0
+
+
 def test_the_chunks_a_caller_compresses_reach_the_file_through_the_writer_process(
     smoke_v2_test: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
