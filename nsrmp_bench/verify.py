@@ -34,7 +34,7 @@ from nsrmp_bench.storage.records import ShardRecord
 from nsrmp_bench.storage.tolerance import compare_summaries, tolerant_summary
 
 __all__ = ["Comparison", "ShardCheck", "VerifyReport", "check_shard", "compare_with_committed",
-           "verify"]
+           "identical_files", "verify"]
 
 _SHOW = 10
 
@@ -207,7 +207,8 @@ def _files_note(same: int, here: int, committed: int) -> str:
         return f"every shard file is byte for byte the committed one ({counted(same, 'shard')})"
     return (f"{same} of {counted(here, 'shard file')} here are byte for byte the committed "
             f"ones ({committed} committed): the episodes are the same, the files are not "
-            "(another --shard-size, or another h5py/HDF5 laying the files out)")
+            "(another --shard-size, another nsrmp-bench version, which each file records, or "
+            "another h5py/HDF5 laying the files out)")
 
 
 def _spec_problem(manifest: Manifest, spec: SplitSpec) -> str | None:

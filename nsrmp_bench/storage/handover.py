@@ -139,5 +139,6 @@ class Handover:
         self._free.release()
 
     def close(self) -> None:
-        """Unmap the slots (the parent, once the child has exited)."""
+        """Unmap the parent's slots, once the child has released every slot or stopped (its
+        own mapping stays its own until it exits)."""
         self._map.close()

@@ -413,7 +413,7 @@ def _remove_partial(tmp_path: Path) -> None:
     """Remove a shard's partial file; something else in its place (a folder: the writer
     could not open its file there) is not the writer's to remove, and the error that
     stopped the writer is what the caller sees."""
-    if not tmp_path.is_dir():
+    if tmp_path.is_symlink() or not tmp_path.is_dir():
         tmp_path.unlink(missing_ok=True)
 
 
@@ -455,8 +455,8 @@ class _Child:
         self.closed = False
         self.chunks_compressed = 0  # image chunks compressed here while the child lagged
         self._error: tuple[bool, str] | None = None
-        # the child's "open" is read when the first episode is handed over (or at commit
-        # or abort), not here: the caller makes that episode while the child opens the file
+        # the child's "open" is read when the first episode is handed over (or at commit),
+        # not here: the caller makes that episode while the child opens the file
         self._opened = False
 
     def _answer(self) -> tuple[str, Any]:
@@ -478,14 +478,18 @@ class _Child:
         if (not self._opened and not self.closed and self._error is None
                 and self._answer()[0] != "open"):
             self._finish()
+            self.raise_error()
+            msg = f"writing shard {self.file} failed: the writer process did not open it"
+            raise RuntimeError(msg)  # _answer records an error for anything else; a guard
         self.raise_error()
 
     def add(self, episode: Episode, *, last: bool = False) -> None:
         """Hand ``episode`` over. While the child lags (both slots hold episodes it has
         not written), compress this episode's image chunks here rather than wait, until a
         slot is free: the child stores those as they are (the same bytes). The shard's
-        ``last`` episode is compressed here until the child has written every episode
-        before it: after it the caller would only wait for the commit."""
+        ``last`` episode is compressed here until the child has released every slot (has
+        written the episodes before it, but one too large for a slot, which went by the
+        pipe: a matter of speed only): after it the caller would only wait for the commit."""
         self._open()
         compressed: Compressed = {}
         ready = self._handover.idle if last else self._handover.free

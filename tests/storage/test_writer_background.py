@@ -68,12 +68,13 @@ def test_background_writer_writes_the_bytes_of_the_synchronous_one(
     assert shas[True][0] == _sha(committed)
 
 
-def _slow_down_the_writer(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Every episode written 0.1 s late (a writer process forked afterwards inherits it)."""
+def _slow_down_the_writer(monkeypatch: pytest.MonkeyPatch, seconds: float = 0.1) -> None:
+    """Every episode written ``seconds`` late (a writer process forked afterwards inherits
+    it)."""
     write = writer_module.write_episode_group
 
     def slow(*args: Any, **kwargs: Any) -> None:
-        time.sleep(0.1)
+        time.sleep(seconds)
         write(*args, **kwargs)
 
     monkeypatch.setattr(writer_module, "write_episode_group", slow)
@@ -103,7 +104,7 @@ def test_the_caller_compresses_the_last_episode_while_the_child_writes_the_one_b
     after the last the caller would only wait for the commit."""
     with open_part(smoke_v2_test) as part:
         episodes = [part.episode(i) for i in range(2)]
-    _slow_down_the_writer(monkeypatch)
+    _slow_down_the_writer(monkeypatch, 1.0)  # time enough for ~9 chunks on a loaded machine
     w, record = _write_in_process(tmp_path, episodes)
     last = sum(1 for _, _, arr, kw in image_datasets(episode_arrays(episodes[1]))
                for _ in image_chunks(arr, kw))
