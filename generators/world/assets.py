@@ -332,6 +332,7 @@ def collision_obj(src: Path, directory: Path) -> Path:
 
 
 _STAND_IN_VISUAL: Final = '<visual><geometry><box size="0.001 0.001 0.001"/></geometry></visual>'
+_VISUAL_ELEMENT: Final = re.compile(r"<visual>.*?</visual>", re.DOTALL)
 
 
 def bounding_points_obj(src: Path, directory: Path) -> Path:
@@ -390,7 +391,7 @@ def _without_visuals(text: str) -> str:
     One element per line, not one line: PyBullet reads a URDF line by line and breaks a
     line after 8,191 characters, mid-attribute (the arm's file holds the asset cache's
     absolute paths, so its length depends on where the cache is)."""
-    text = re.sub(r"<visual>.*?</visual>", "", text, flags=re.DOTALL)
+    text = _VISUAL_ELEMENT.sub("", text)
     text = re.sub(r"<!--.*?-->", "", text, flags=re.DOTALL)
     return re.sub(r">\s+<", ">\n<", text).strip() + "\n"
 
@@ -443,7 +444,7 @@ def lean_panda_urdf(directory: Path, data_path: str | os.PathLike[str], *,
 
         text = re.sub(r"<collision>.*?</collision>", lean, text, flags=re.DOTALL)
     if not visuals:
-        text = re.sub(r"<visual>.*?</visual>", _STAND_IN_VISUAL, text, flags=re.DOTALL)
+        text = _VISUAL_ELEMENT.sub(_STAND_IN_VISUAL, text)
     text = text.replace("package://meshes/visual/", f"{mesh_dir}/")
     text = text.replace("package://meshes/collision/", f"{mesh_dir}/")
     return write_content_named(directory, "panda_lean", ".urdf", text.encode("utf-8"))

@@ -108,22 +108,23 @@ class Handover:
     def free(self) -> bool:
         """Whether a slot is free now, so that :meth:`pack` would not wait (the parent;
         only it takes slots, so a free one stays free until it packs)."""
-        if self._free.acquire(block=False):
-            self._free.release()
-            return True
-        return False
+        return self._free_slots(1)
 
     def idle(self) -> bool:
         """Whether every slot is free: the child has released all it was handed (the
         parent; the child only ever frees more)."""
+        return self._free_slots(self.slots)
+
+    def _free_slots(self, n: int) -> bool:
+        """Whether ``n`` slots are free now; takes none (each taken to count is given back)."""
         taken = 0
         try:
-            while taken < self.slots and self._free.acquire(block=False):
+            while taken < n and self._free.acquire(block=False):
                 taken += 1
         finally:
             for _ in range(taken):
                 self._free.release()
-        return taken == self.slots
+        return taken == n
 
     def unpack(self, packed: Packed) -> Any:
         """The object :meth:`pack` packed; its large arrays are views of the slot (read-only

@@ -25,8 +25,8 @@ rest over a pipe. When the child lags (both slots hold episodes it has not writt
 the caller does not just wait: it compresses the image chunks of the episode it is
 handing over until a slot is free (:func:`~nsrmp_bench.storage.chunks.precompress`), and
 the child stores those as they are, so the work is shared between the two cores. The
-shard's last episode is compressed by the caller until the child has written the ones
-before it, since after it the caller would only wait. The caller does not wait for the
+shard's last episode is compressed by the caller until the child has released every
+slot, since after it the caller would only wait. The caller does not wait for the
 child to open the file either: it makes the first episode meanwhile, and the first
 :meth:`ShardWriter.add` reports a child that could not. The
 child ends with the shard: it commits when told, and aborts
@@ -53,7 +53,7 @@ from collections.abc import Callable, Mapping
 from multiprocessing.connection import Connection
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Literal
+from typing import Any, Literal, NoReturn
 
 import h5py
 import numpy as np
@@ -477,10 +477,7 @@ class _Child:
         """Wait for the child to say it has opened the file, or raise what stopped it."""
         if (not self._opened and not self.closed and self._error is None
                 and self._answer()[0] != "open"):
-            self._finish()
-            self.raise_error()
-            msg = f"writing shard {self.file} failed: the writer process did not open it"
-            raise RuntimeError(msg)  # _answer records an error for anything else; a guard
+            self._failed()
         self.raise_error()
 
     def add(self, episode: Episode, *, last: bool = False) -> None:
@@ -514,9 +511,13 @@ class _Child:
         if not self._proc.is_alive() or self._answer_r.poll():
             self._stopped()
 
-    def _stopped(self) -> None:
+    def _stopped(self) -> NoReturn:
         """The child stopped early: read its error, reap it and raise the error."""
         self._answer()
+        self._failed()
+
+    def _failed(self) -> NoReturn:
+        """The child stopped (its last message read): reap it and raise its error."""
         self._finish()
         self.raise_error()
         msg = f"writing shard {self.file} failed: the writer process stopped early"
