@@ -69,11 +69,16 @@ its images (Python's ``zlib``, level 1, shuffled floats, as HDF5's filters), med
 ``--repeat`` runs, at the part's image size and (``--large`` > 0) at 1024x768 for
 ``--large`` instances.
 
-``--writer-ablation`` times only one worker end to end with the writer process, three
+``--writer`` also prints the same writer's CPU with every image chunk compressed whole
+(the compression not resumed after the background's rows, :mod:`~nsrmp_bench.storage.
+prefix_deflate`), alternating with the rest.
+
+``--writer-ablation`` times only one worker end to end with the writer process, four
 ways alternating, and generating alone: as shipped (the writer compresses the image chunks
 with Python's ``zlib`` and stores them as they are, and while it lags the generator
 compresses chunks of the episode it hands over rather than wait, :func:`~nsrmp_bench.
-storage.chunks.precompress`); without the generator's share; and with HDF5's own filter
+storage.chunks.precompress`); every chunk compressed whole (not resumed after the
+background's rows); without the generator's share; and with HDF5's own filter
 compressing in the writer (both changes undone: the writer of ``d6037cd``), ``--repeat``
 runs of ``--episodes`` instances at the part's image size, or ``--large`` at 1024x768.
 """
@@ -81,9 +86,11 @@ runs of ``--episodes`` instances at the part's image size, or ``--large`` at 102
 from __future__ import annotations
 
 import argparse
+import contextlib
 import functools
 import importlib.metadata
 import json
+import multiprocessing
 import os
 import resource
 import statistics
@@ -91,7 +98,8 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+import zlib
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -107,6 +115,7 @@ from nsrmp_bench.storage.arrays import episode_arrays
 from nsrmp_bench.storage.chunks import precompress
 from nsrmp_bench.storage.handover import Handover
 from nsrmp_bench.storage.hashing import episode_hash
+from nsrmp_bench.storage.prefix_deflate import PrefixDeflater
 from nsrmp_bench.storage.writer import Background, ShardWriter
 
 ORIGINAL_S_PER_SAMPLE = 1.02
@@ -190,8 +199,10 @@ def end_to_end(spec: SplitSpec, part: str, n: int, timed: TimedWorld,
             committing = time.perf_counter()
             w.commit()
             done = time.perf_counter()
-        return ((time.perf_counter() - wall) / n, (cpu_s() - cpu) / n, opened - wall,
-                done - committing)
+        elapsed = time.perf_counter() - wall
+        for child in multiprocessing.active_children():  # the writer process: its CPU
+            child.join()  # counts once reaped, which the writer leaves to multiprocessing
+        return elapsed / n, (cpu_s() - cpu) / n, opened - wall, done - committing
 
 
 def alternate(repeat: int, runs: dict[str, Callable[[], Any]]) -> dict[str, list[Any]]:
@@ -338,14 +349,30 @@ def original_run(tree: Path, scenes: int) -> tuple[float, float]:
     return run.seconds_per_sample, run.cpu_s / run.samples
 
 
+@contextlib.contextmanager
+def deflate_not_resumed(off: bool = True) -> Iterator[None]:
+    """While active (``off``), every writer compresses each image chunk whole with
+    ``zlib.compress``, as before :mod:`~nsrmp_bench.storage.prefix_deflate` (the same bytes)."""
+    resumed = PrefixDeflater.compress
+    if off:
+        PrefixDeflater.compress = (  # type: ignore[method-assign]
+            lambda self, raw, level, kind: zlib.compress(raw, level))
+    try:
+        yield
+    finally:
+        PrefixDeflater.compress = resumed  # type: ignore[method-assign]
+
+
 def writer_costs(spec: SplitSpec, part: str, n: int, repeat: int,
                  image: tuple[int, int]) -> None:
-    """Print the synchronous writer's CPU ms per episode and its hash and DEFLATE parts."""
+    """Print the synchronous writer's CPU ms per episode and its hash and DEFLATE parts,
+    and the same writer without the resumed compression."""
     world = World(official_camera(*image))
     episodes = [make_episode(spec, part, i, world) for i in range(n)]
 
-    def write() -> float:
-        with tempfile.TemporaryDirectory(prefix="bench-writer-") as out:
+    def write(resumed: bool = True) -> float:
+        with tempfile.TemporaryDirectory(prefix="bench-writer-") as out, \
+                deflate_not_resumed(off=not resumed):
             start = time.process_time()
             with ShardWriter(out, 0, n, split=f"{spec.id}/{part}", background=False) as w:
                 for episode in episodes:
@@ -365,40 +392,48 @@ def writer_costs(spec: SplitSpec, part: str, n: int, repeat: int,
             precompress(episode_arrays(episode), until=lambda: False)  # every chunk
         return (time.process_time() - start) / n * 1e3
 
-    rows = alternate(repeat, {"write": write, "hash": hashing, "deflate": deflate})
-    total, sha, comp = (med(rows[k]) for k in ("write", "hash", "deflate"))
+    rows = alternate(repeat, {"write": write, "hash": hashing, "deflate": deflate,
+                              "not resumed": lambda: write(resumed=False)})
+    total, sha, comp, plain = (med(rows[k]) for k in ("write", "hash", "deflate",
+                                                        "not resumed"))
+    pairs = [w / p for w, p in zip(rows["write"], rows["not resumed"], strict=True)]
     print(f"writer, {spec.id}/{part}, {n} episodes at {image[0]}x{image[1]}, CPU ms per "
           f"episode, medians of {repeat}: {total:.1f} in all; SHA-256 {sha:.1f}, DEFLATE of "
-          f"the images {comp:.1f}, the rest (HDF5 objects, flush, commit) "
-          f"{total - sha - comp:.1f}")
+          f"the images (each whole) {comp:.1f}, the rest (HDF5 objects, flush, commit) "
+          f"{total - sha - comp:.1f}; without the resumed compression {plain:.1f} in all "
+          f"({med(pairs):.3f}x the CPU pair by pair, {min(pairs):.3f}-{max(pairs):.3f})")
 
 
 def writer_ablation(spec: SplitSpec, part: str, n: int, repeat: int,
                     image: tuple[int, int]) -> None:
-    """One worker end to end with the writer process three ways, alternating: as shipped
-    (chunks compressed by the writer with Python's zlib, and by the generator while the
-    writer lags), without the generator's share, and with HDF5's filter compressing in
-    the writer (the writer before either change); and generating alone."""
+    """One worker end to end with the writer process four ways, alternating: as shipped
+    (chunks compressed by the writer with Python's zlib, resumed after the background's
+    rows, and by the generator while the writer lags), every chunk compressed whole,
+    without the generator's share, and with HDF5's filter compressing in the writer (the
+    writer before these changes); and generating alone."""
     timed = TimedWorld(World(official_camera(*image)))
     timed.episode(spec, part, 0)
     free, idle, put = Handover.free, Handover.idle, writer_module._put_image
 
-    def hdf5_filter(group: Any, path: str, name: str, arr: Any, kw: Any, _: Any) -> None:
+    def hdf5_filter(group: Any, path: str, name: str, arr: Any, kw: Any, *_: Any) -> None:
         h5_objects.dataset(group, name, arr, kw)
 
-    def variant(share: bool, python_zlib: bool) -> Callable[[], tuple[float, ...]]:
+    def variant(share: bool, python_zlib: bool,
+                resumed: bool = True) -> Callable[[], tuple[float, ...]]:
         def run() -> tuple[float, ...]:
             Handover.free = free if share else lambda self: True  # type: ignore[method-assign]
             Handover.idle = idle if share else lambda self: True  # type: ignore[method-assign]
             writer_module._put_image = put if python_zlib else hdf5_filter
             try:
-                return end_to_end(spec, part, n, timed, "process")
+                with deflate_not_resumed(off=not resumed):
+                    return end_to_end(spec, part, n, timed, "process")
             finally:
                 Handover.free, Handover.idle = free, idle  # type: ignore[method-assign]
                 writer_module._put_image = put
         return run
 
     rows = alternate(repeat, {"shipped": variant(True, True),
+                              "compression not resumed": variant(True, True, resumed=False),
                               "writer compresses alone": variant(False, True),
                               "HDF5's filter, writer alone": variant(False, False),
                               "generate only": lambda: generate_alone(spec, part, n, timed)})
@@ -411,7 +446,7 @@ def writer_ablation(spec: SplitSpec, part: str, n: int, repeat: int,
             line += (f"; shipped's speed against it {med(pairs):.3f}x "
                      f"({min(pairs):.3f}-{max(pairs):.3f}), pair by pair")
         print(line)
-    for name in ("shipped", "HDF5's filter, writer alone"):
+    for name in ("shipped", "compression not resumed", "HDF5's filter, writer alone"):
         ratio = [g[0] / a[0] for a, g in zip(rows[name], rows["generate only"], strict=True)]
         print(f"  end to end / generate only, {name}: {med(ratio):.2f}")
 

@@ -10,7 +10,9 @@ with ``write_direct_chunk`` (:mod:`~nsrmp_bench.storage.chunks`): the filters HD
 apply (byte shuffle for float images, then DEFLATE level 1), so the same bytes on disk,
 which ``tests/storage`` checks against the committed shards; it costs less CPU than
 HDF5's filter called through h5py (a quarter less at 320x240), and zlib lets go of the
-GIL.
+GIL. Each writer learns its shard's background from its first episodes and compresses an
+RGB or segmentation image only after the rows it shares with it, resuming a copy of the
+background's compressor (:mod:`~nsrmp_bench.storage.prefix_deflate`): the same bytes.
 
 With ``background=True`` (the default) hashing, compressing and writing run on one writer
 thread, in the order episodes were added, while the caller makes the next episode.
@@ -86,6 +88,7 @@ from nsrmp_bench.storage.layout import (
     shard_filename,
     small_codec,
 )
+from nsrmp_bench.storage.prefix_deflate import PrefixDeflater
 from nsrmp_bench.storage.records import EpisodeEntry, ShardRecord, fsync_dir
 from nsrmp_bench.storage.tolerance import tolerant_summary
 from nsrmp_bench.vocabulary import vocabulary_dict
@@ -97,7 +100,7 @@ Background = bool | Literal["thread", "process"]
 ``"thread"`` on a writer thread, ``"process"`` in a forked child."""
 
 def _put_image(group: Any, path: str, name: str, arr: NDArray[Any], kw: Mapping[str, Any],
-               compressed: Compressed) -> None:
+               compressed: Compressed, deflater: PrefixDeflater | None) -> None:
     """An :func:`image_codec` dataset, its chunks compressed here (or taken from
     ``compressed``) and written as they are: the filters HDF5 would apply, so the same
     bytes. ``path`` is the group's path in the episode group."""
@@ -109,11 +112,13 @@ def _put_image(group: Any, path: str, name: str, arr: NDArray[Any], kw: Mapping[
     ds = h5_objects.empty_dataset(group, name, arr.shape, arr.dtype, kw)
     for k, offset, chunk in chunks:
         ready = compressed.get((key, k))
-        ds.write_direct_chunk(offset, ready if ready is not None else filtered_chunk(chunk, kw))
+        ds.write_direct_chunk(offset, ready if ready is not None
+                              else filtered_chunk(chunk, kw, deflater))
 
 
 def write_episode_group(parent: h5py.Group, episode: Episode, index: int, ehash: str, *,
-                        compressed: Compressed | None = None) -> None:
+                        compressed: Compressed | None = None,
+                        deflater: PrefixDeflater | None = None) -> None:
     """Write one episode as ``parent/<id>`` in the layout of :mod:`~nsrmp_bench.storage.layout`.
 
     The groups, datasets and attributes are made through :mod:`~nsrmp_bench.storage.
@@ -123,7 +128,11 @@ def write_episode_group(parent: h5py.Group, episode: Episode, index: int, ehash:
     called through h5py: the same bytes, less CPU (h5py's filter path copies and converts
     on the way), and zlib lets go of the GIL, so a writer thread leaves its caller room.
     ``compressed`` holds chunks already through the filters (:func:`~nsrmp_bench.storage.
-    chunks.precompress`), stored as they are."""
+    chunks.precompress`), stored as they are. A ``deflater`` (one per shard) compresses
+    the rest, resuming after the rows they share with the shard's learnt background (the
+    same bytes; :mod:`~nsrmp_bench.storage.prefix_deflate`)."""
+    if deflater is not None:
+        deflater.next_episode()
     sym = episode.symbolic
     arrays = episode_arrays(episode)
     g = h5_objects.group(parent.id, check_episode_id(sym.id))
@@ -155,7 +164,7 @@ def write_episode_group(parent: h5py.Group, episode: Episode, index: int, ehash:
         groups = {"inputs/obs": h5_objects.group(inputs, "obs"),
                   "targets/obs": h5_objects.group(targets, "obs")}
         for path, name, arr, kw in images:
-            _put_image(groups[path], path, name, arr, kw, compressed or {})
+            _put_image(groups[path], path, name, arr, kw, compressed or {}, deflater)
     if r is not None:
         for key in ("boxes_amodal", "boxes_visible"):
             h5_objects.dataset(inputs, key, arrays[f"targets/{key}"][0], small_codec())
@@ -214,6 +223,7 @@ class ShardWriter:
                    f"got {background!r}")
             raise InvalidArgument(msg)
         self._child: _Child | None = None
+        self._deflater = PrefixDeflater()  # where this writer compresses (a child has its own)
         self._f: h5py.File | None = None
         self._jobs: queue.Queue[Callable[[], None] | None] | None = None
         self._thread: threading.Thread | None = None
@@ -269,7 +279,8 @@ class ShardWriter:
         image chunks in ``compressed`` as they are."""
         assert self._f is not None
         ehash = episode_hash(episode)
-        write_episode_group(self._data, episode, index, ehash, compressed=compressed)
+        write_episode_group(self._data, episode, index, ehash, compressed=compressed,
+                            deflater=self._deflater)
         self._f.flush()
         self._entries.append(EpisodeEntry(index, episode.id, ehash,
                                           episode.symbolic.categories(),
@@ -454,6 +465,7 @@ class _Child:
         self._episodes_r.close()
         self.closed = False
         self.chunks_compressed = 0  # image chunks compressed here while the child lagged
+        self._deflater = PrefixDeflater()  # the caller's own, for the chunks it compresses
         self._error: tuple[bool, str] | None = None
         # the child's "open" is read when the first episode is handed over (or at commit),
         # not here: the caller makes that episode while the child opens the file
@@ -497,7 +509,8 @@ class _Child:
                 arrays = {}
             compressed = precompress(  # as many as still fit the slot beside the arrays
                 arrays, until=lambda: ready() or not self._proc.is_alive(),
-                max_bytes=self._handover.room(a.nbytes for a in arrays.values()))
+                max_bytes=self._handover.room(a.nbytes for a in arrays.values()),
+                deflater=self._deflater)
         item = (episode, compressed)
         try:
             packed = self._handover.pack(item, self._alive)

@@ -159,8 +159,9 @@ def test_the_chunks_a_caller_compresses_reach_the_file_through_the_writer_proces
     _slow_down_the_writer(monkeypatch)
     with ShardWriter(tmp_path, 0, len(episodes), split="smoke-v2/test",
                      background="process") as w:
-        monkeypatch.setattr(chunks_module, "filtered_chunk", lambda chunk, kw: filtered_chunk(
-            chunk, {**kw, "compression_opts": 9}))
+        monkeypatch.setattr(chunks_module, "filtered_chunk",
+                            lambda chunk, kw, deflater=None: filtered_chunk(
+                                chunk, {**kw, "compression_opts": 9}, deflater))
         for ep in episodes:
             w.add(ep)
         record = w.commit()
