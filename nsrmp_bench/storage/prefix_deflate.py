@@ -97,7 +97,7 @@ class PrefixDeflater:
             self._vote(key, data, level)
             return zlib.compress(raw, level)
         j = min(_first_difference(data, ref.reference) // ref.step, len(ref.states) - 1)
-        if j == 0:
+        if j <= 0:  # nothing shared before the first checkpoint (or an empty stream)
             return zlib.compress(raw, level)
         state, produced = ref.states[j]
         resumed = state.copy()

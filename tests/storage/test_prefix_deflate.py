@@ -90,6 +90,9 @@ def test_kinds_lengths_and_episodes_keep_their_own_references() -> None:
     raw = bg.tobytes()
     assert deflater.compress(raw, 1, "b") == zlib.compress(raw, 1)  # another kind: learning
     assert deflater.compress(raw, 9, "a") == zlib.compress(raw, 9)  # another level: too
+    for _ in range(4):  # an empty stream, learnt and compressed again
+        deflater.next_episode()
+        assert deflater.compress(b"", 1, "a") == zlib.compress(b"", 1)
     assert deflater.resumed_bytes == before
 
 
