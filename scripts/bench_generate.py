@@ -201,7 +201,8 @@ def end_to_end(spec: SplitSpec, part: str, n: int, timed: TimedWorld,
             done = time.perf_counter()
         elapsed = time.perf_counter() - wall
         for child in multiprocessing.active_children():  # the writer process: its CPU
-            child.join()  # counts once reaped, which the writer leaves to multiprocessing
+            if child.name.startswith("writer "):  # counts once reaped, which the writer
+                child.join(timeout=60)  # leaves to multiprocessing
         return elapsed / n, (cpu_s() - cpu) / n, opened - wall, done - committing
 
 
@@ -350,17 +351,18 @@ def original_run(tree: Path, scenes: int) -> tuple[float, float]:
 
 
 @contextlib.contextmanager
-def deflate_not_resumed(off: bool = True) -> Iterator[None]:
-    """While active (``off``), every writer compresses each image chunk whole with
-    ``zlib.compress``, as before :mod:`~nsrmp_bench.storage.prefix_deflate` (the same bytes)."""
-    resumed = PrefixDeflater.compress
-    if off:
+def compression_resumed(resumed: bool) -> Iterator[None]:
+    """With ``resumed`` False, while active every writer compresses each image chunk whole
+    with ``zlib.compress``, as before :mod:`~nsrmp_bench.storage.prefix_deflate` (the same
+    bytes); with True, nothing changes."""
+    shipped = PrefixDeflater.compress
+    if not resumed:
         PrefixDeflater.compress = (  # type: ignore[method-assign]
             lambda self, raw, level, kind: zlib.compress(raw, level))
     try:
         yield
     finally:
-        PrefixDeflater.compress = resumed  # type: ignore[method-assign]
+        PrefixDeflater.compress = shipped  # type: ignore[method-assign]
 
 
 def writer_costs(spec: SplitSpec, part: str, n: int, repeat: int,
@@ -372,7 +374,7 @@ def writer_costs(spec: SplitSpec, part: str, n: int, repeat: int,
 
     def write(resumed: bool = True) -> float:
         with tempfile.TemporaryDirectory(prefix="bench-writer-") as out, \
-                deflate_not_resumed(off=not resumed):
+                compression_resumed(resumed):
             start = time.process_time()
             with ShardWriter(out, 0, n, split=f"{spec.id}/{part}", background=False) as w:
                 for episode in episodes:
@@ -425,7 +427,7 @@ def writer_ablation(spec: SplitSpec, part: str, n: int, repeat: int,
             Handover.idle = idle if share else lambda self: True  # type: ignore[method-assign]
             writer_module._put_image = put if python_zlib else hdf5_filter
             try:
-                with deflate_not_resumed(off=not resumed):
+                with compression_resumed(resumed):
                     return end_to_end(spec, part, n, timed, "process")
             finally:
                 Handover.free, Handover.idle = free, idle  # type: ignore[method-assign]

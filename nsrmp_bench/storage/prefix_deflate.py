@@ -2,28 +2,30 @@
 
 A shard's images share their camera's empty scene: a composite render is the cached
 background with the objects drawn over it, so the rows above the highest object are the
-same bytes in every image of a split (about half of an RGB image at 320x240). zlib's
-output for a stream does not depend on how its input is split between ``compress`` calls
-(without flushes), and a compressor's whole state can be copied
-(``zlib.Compress.copy``). So :class:`PrefixDeflater` compresses a *reference* stream once,
-keeping a copy of the compressor every ``step`` bytes with the output so far; a stream
-whose first ``d`` bytes equal the reference's takes the last checkpoint at or before
-``d`` and compresses only the rest. The result is exactly ``zlib.compress(raw, level)``,
-whatever the reference: a poor one only saves less (tests compare every stream with
-``zlib.compress``).
+same bytes in every image of a split (about half of an RGB image at 320x240). Stock zlib's
+output at levels 1-9 does not depend on how its input is split between ``compress`` calls
+(without flushes), and a compressor's whole state can be copied (``zlib.Compress.copy``).
+So :class:`PrefixDeflater` compresses a *reference* stream once, keeping a copy of the
+compressor every ``step`` bytes with the output so far; a stream whose first ``d`` bytes
+equal the reference's takes the last checkpoint at or before ``d`` and compresses only the
+rest. The result is exactly ``zlib.compress(raw, level)``, whatever the reference: a poor
+one only saves less (tests compare every stream with ``zlib.compress``). Level 0 (stored
+blocks, sized by how the input arrives) is always compressed whole, and a zlib build whose
+output does depend on the split (checked once per reference, resuming from its middle
+checkpoint) is never resumed.
 
 The reference is learnt from the streams themselves, so nothing outside storage has to
-know about backgrounds: the first stream of each kind (length, dtype, shuffle, level) in
-each of the first ``votes`` episodes is kept, and the reference is their byte-wise
-majority (with three different scenes, the background wherever no two of them have an
-object on the same byte).
+know about backgrounds: a kind of stream (the caller's ``kind``, with the level and the
+stream's length) keeps the first stream it is given in each of its first ``votes``
+episodes, and its reference is their byte-wise majority (with three different scenes, the
+background wherever no two of them have an object on the same byte).
 """
 
 from __future__ import annotations
 
 import zlib
 from collections.abc import Hashable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,14 +36,25 @@ __all__ = ["PrefixDeflater"]
 
 
 @dataclass
-class _Checkpoints:
+class _Reference:
     """A reference stream compressed once: the compressor's state every ``step`` bytes."""
 
-    reference: NDArray[np.uint8]
+    stream: NDArray[np.uint8]
     step: int
-    output: bytes  # the reference's whole output before its flush
-    states: list[tuple[zlib._Compress, int]] = field(default_factory=list)
-    """(the compressor after ``j * step`` bytes, the length of its output so far)."""
+    output: bytes
+    """The reference's whole output before its flush."""
+    states: list[tuple[zlib._Compress, int]]
+    """(the compressor after ``j * step`` bytes, the length of its output so far); empty
+    where this zlib's output depends on how the input is split (never resumed)."""
+
+    def resumed(self, raw: bytes, j: int) -> bytes:
+        """``raw``, whose first ``j * step`` bytes are the reference's, compressed from the
+        ``j``-th checkpoint."""
+        state, produced = self.states[j]
+        compressor = state.copy()
+        return b"".join((memoryview(self.output)[:produced],
+                         compressor.compress(memoryview(raw)[j * self.step:]),
+                         compressor.flush()))
 
 
 def _first_difference(a: NDArray[np.uint8], b: NDArray[np.uint8]) -> int:
@@ -66,18 +79,19 @@ class PrefixDeflater:
     apart at least. Not thread-safe: one per writer."""
 
     def __init__(self, *, votes: int = 3, checkpoints: int = 32, min_step: int = 8192) -> None:
-        if votes < 1 or votes % 2 == 0:
-            msg = f"votes must be an odd number >= 1 (a byte-wise majority), got {votes}"
+        if votes < 1 or votes % 2 == 0 or votes > 255:
+            msg = (f"votes must be an odd number from 1 to 255 (a byte-wise majority), got "
+                   f"{votes}")
             raise InvalidArgument(msg)
         if checkpoints < 1 or min_step < 1:
             msg = (f"checkpoints and min_step must be >= 1, got {checkpoints} and "
                    f"{min_step}")
             raise InvalidArgument(msg)
         self._votes = votes
-        self._checkpoints = checkpoints
+        self._max_checkpoints = checkpoints
         self._min_step = min_step
         self._candidates: dict[Hashable, list[NDArray[np.uint8]]] = {}
-        self._references: dict[Hashable, _Checkpoints] = {}
+        self._references: dict[Hashable, _Reference] = {}
         self._voted: set[Hashable] = set()  # kinds that gave a candidate this episode
         self.resumed_bytes = 0
         """Input bytes not compressed again because a checkpoint covered them."""
@@ -90,21 +104,23 @@ class PrefixDeflater:
     def compress(self, raw: bytes, level: int, kind: Hashable) -> bytes:
         """``zlib.compress(raw, level)``, resumed from the reference of ``kind`` (with
         ``level`` and ``len(raw)``) where one covers its first bytes."""
+        if level == 0:  # stored blocks: their sizes follow how the input arrives
+            return zlib.compress(raw, level)
         key = (kind, level, len(raw))
         data = np.frombuffer(raw, np.uint8)
         ref = self._references.get(key)
         if ref is None:
             self._vote(key, data, level)
             return zlib.compress(raw, level)
-        j = min(_first_difference(data, ref.reference) // ref.step, len(ref.states) - 1)
-        if j <= 0:  # nothing shared before the first checkpoint (or an empty stream)
+        j = min(_first_difference(data, ref.stream) // ref.step, len(ref.states) - 1)
+        if j <= 0:  # nothing shared before the first checkpoint (or none kept)
             return zlib.compress(raw, level)
-        state, produced = ref.states[j]
-        resumed = state.copy()
         self.resumed_bytes += j * ref.step
-        return ref.output[:produced] + resumed.compress(raw[j * ref.step:]) + resumed.flush()
+        return ref.resumed(raw, j)
 
     def _vote(self, key: Hashable, data: NDArray[np.uint8], level: int) -> None:
+        """Keep ``data`` as a candidate for its kind's reference (the first stream of the
+        kind in this episode); with ``votes`` of them, make the reference."""
         if key in self._voted:
             return
         self._voted.add(key)
@@ -112,25 +128,29 @@ class PrefixDeflater:
         candidates.append(data.copy())
         if len(candidates) < self._votes:
             return
-        reference = _majority(candidates)
         del self._candidates[key]
-        self._references[key] = _checkpoints(reference, level,
-                                              max(self._min_step,
-                                                  -(-len(reference) // self._checkpoints)))
+        step = max(self._min_step, -(-len(data) // self._max_checkpoints))
+        self._references[key] = _build_reference(_majority(candidates), level, step)
 
 
 def _majority(candidates: list[NDArray[np.uint8]]) -> NDArray[np.uint8]:
-    """The byte-wise majority of an odd number of streams (the first stream's byte where
-    none has a majority)."""
-    stack = np.stack(candidates)
-    counts = (stack[:, None, :] == stack[None, :, :]).sum(axis=1)  # equal bytes per stream
-    majority: NDArray[np.uint8] = np.take_along_axis(stack, counts.argmax(axis=0)[None, :],
-                                                     axis=0)[0]
-    return majority
+    """The byte-wise majority of an odd number (at most 255) of streams, one pass each
+    (Boyer-Moore's vote); where no byte value holds a majority, one of the values."""
+    winner = candidates[0].copy()
+    count = np.ones(len(winner), np.uint8)
+    for stream in candidates[1:]:
+        same = stream == winner
+        fresh = count == 0
+        winner[fresh] = stream[fresh]
+        count += (same | fresh).astype(np.uint8)
+        count -= (~same & ~fresh).astype(np.uint8)
+    return winner
 
 
-def _checkpoints(reference: NDArray[np.uint8], level: int, step: int) -> _Checkpoints:
-    raw = reference.tobytes()
+def _build_reference(stream: NDArray[np.uint8], level: int, step: int) -> _Reference:
+    """``stream`` compressed once, its compressor copied every ``step`` bytes; no states
+    if resuming from the middle checkpoint does not give this zlib's own output."""
+    raw = stream.tobytes()
     compressor = zlib.compressobj(level)
     pieces: list[bytes] = []
     produced = 0
@@ -140,4 +160,7 @@ def _checkpoints(reference: NDArray[np.uint8], level: int, step: int) -> _Checkp
         piece = compressor.compress(raw[offset:offset + step])
         pieces.append(piece)
         produced += len(piece)
-    return _Checkpoints(reference, step, b"".join(pieces), states)
+    reference = _Reference(stream, step, b"".join(pieces), states)
+    if len(states) > 1 and reference.resumed(raw, len(states) // 2) != zlib.compress(raw, level):
+        reference.states = []
+    return reference

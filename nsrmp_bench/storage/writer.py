@@ -223,7 +223,7 @@ class ShardWriter:
                    f"got {background!r}")
             raise InvalidArgument(msg)
         self._child: _Child | None = None
-        self._deflater = PrefixDeflater()  # where this writer compresses (a child has its own)
+        self._deflater: PrefixDeflater | None = None  # where this writer compresses
         self._f: h5py.File | None = None
         self._jobs: queue.Queue[Callable[[], None] | None] | None = None
         self._thread: threading.Thread | None = None
@@ -233,6 +233,7 @@ class ShardWriter:
             self._child = _Child(self.tmp_path, (os.fspath(out_dir), start, stop, split,
                                                  package_version))
             return
+        self._deflater = PrefixDeflater()
         self._f = h5py.File(self.tmp_path, "w", libver=LIBVER)
         self._f.attrs["format"] = FORMAT
         self._f.attrs["schema_version"] = SCHEMA_VERSION

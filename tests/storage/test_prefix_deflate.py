@@ -96,8 +96,43 @@ def test_kinds_lengths_and_episodes_keep_their_own_references() -> None:
     assert deflater.resumed_bytes == before
 
 
+def test_level_0_is_never_resumed() -> None:
+    """Stored blocks are sized by how the input arrives: a resumed stream would differ."""
+    raw = np.random.default_rng(11).integers(0, 256, 70_000, np.uint8).tobytes()
+    deflater = PrefixDeflater(votes=1, min_step=512)
+    for _ in range(2):
+        deflater.next_episode()
+        assert deflater.compress(raw, 0, "a") == zlib.compress(raw, 0)
+    assert deflater.resumed_bytes == 0
+
+
+def test_a_zlib_whose_output_depends_on_the_split_is_never_resumed(
+    monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The reference's check (resumed from its middle checkpoint, against zlib's own
+    output) finds such a build once; its kind is compressed whole from then on."""
+    from nsrmp_bench.storage import prefix_deflate
+
+    resumed = prefix_deflate._Reference.resumed
+    monkeypatch.setattr(prefix_deflate._Reference, "resumed",
+                        lambda self, raw, j: resumed(self, raw, j) + b"\0")
+    bg = _background(np.random.default_rng(2)).tobytes()
+    deflater = PrefixDeflater(votes=1, min_step=512)
+    for _ in range(3):
+        deflater.next_episode()
+        assert deflater.compress(bg, 1, "rgb") == zlib.compress(bg, 1)
+    assert deflater.resumed_bytes == 0
+    monkeypatch.undo()  # the check itself resumes what a sound zlib gives
+    deflater = PrefixDeflater(votes=1, min_step=512)
+    for _ in range(2):
+        deflater.next_episode()
+        assert deflater.compress(bg, 1, "rgb") == zlib.compress(bg, 1)
+    assert deflater.resumed_bytes > 0
+
+
 @pytest.mark.parametrize(("kwargs", "named"), [({"votes": 2}, "votes must be an odd number"),
                                                ({"votes": 0}, "got 0"),
+                                               ({"votes": 257}, "from 1 to 255 .*got 257"),
                                                ({"checkpoints": 0}, "got 0 and 8192")])
 def test_bad_settings_are_refused_by_name(kwargs: dict[str, int], named: str) -> None:
     with pytest.raises(InvalidArgument, match=named):
