@@ -49,9 +49,10 @@ def filtered_chunk(chunk: NDArray[Any], kw: Mapping[str, Any],
     checkpoints (measured: 5% of a depth chunk's DEFLATE, against 15-25% of an RGB one)."""
     data = np.ascontiguousarray(chunk)
     level = int(kw["compression_opts"])
-    if not kw.get("shuffle") and deflater is not None:
+    shuffle = bool(kw.get("shuffle"))
+    if not shuffle and deflater is not None:
         return deflater.compress(data.tobytes(), level, data.dtype.str)
-    if kw.get("shuffle") and data.size > 1:
+    if shuffle and data.size > 1:
         raw = data.view(np.uint8).reshape(data.size, data.dtype.itemsize).T.tobytes()
     else:
         raw = data.tobytes()

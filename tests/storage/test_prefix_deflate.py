@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.storage import prefix_deflate
 from nsrmp_bench.storage.prefix_deflate import PrefixDeflater
 
 HEIGHT, WIDTH = 60, 80
@@ -111,8 +112,6 @@ def test_a_zlib_whose_output_depends_on_the_split_is_never_resumed(
 ) -> None:
     """The reference's check (resumed from its middle checkpoint, against zlib's own
     output) finds such a build once; its kind is compressed whole from then on."""
-    from nsrmp_bench.storage import prefix_deflate
-
     resumed = prefix_deflate._Reference.resumed
     monkeypatch.setattr(prefix_deflate._Reference, "resumed",
                         lambda self, raw, j: resumed(self, raw, j) + b"\0")
