@@ -125,7 +125,7 @@ class PrefixDeflater:
             return
         self._voted.add(key)
         candidates = self._candidates.setdefault(key, [])
-        candidates.append(data.copy())
+        candidates.append(data)  # a view of the caller's bytes, which cannot change
         if len(candidates) < self._votes:
             return
         del self._candidates[key]
