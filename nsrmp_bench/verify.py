@@ -254,6 +254,13 @@ def verify(
     report.root_hash = root_hash(recomputed.items())
     if report.root_hash != manifest.root_hash and not report.problems:
         report.problems.append("root hash differs from manifest.json although episodes match")
+    if manifest.perturbation is not None:
+        pert = manifest.perturbation
+        report.notes.append(
+            f"a perturbed copy ({pert.get('kind')}, seed {pert.get('seed')}) of a part whose "
+            f"root hash is {pert.get('source_root_hash')}: checked against its own manifest; "
+            "`nsrmp-bench perturb SOURCE --kind KIND --seed SEED` makes the same bytes")
+        return report
     if not manifest.official:
         report.notes.append(f"unofficial split {manifest.split} (made from a spec file; the "
                             "spec is in its manifest): no committed manifest to compare")

@@ -34,6 +34,9 @@ VERBS: dict[str, str] = {
     "import-nsrm": "convert the original NSRM release layout into nsrmp-bench shards",
     "score": "score a predictions file against a split's data",
     "compare": "paired comparison of two predictions files on the same split",
+    "perturb": "a perturbed copy of a part (polite, typo, synonym, ...; blind and shuffled "
+               "controls)",
+    "robustness": "models on every perturbation of a part: paired IoU-M drops with intervals",
     "check-submission": "validate a predictions file without scoring it",
     "baseline": "write a non-learned baseline's predictions (oracle, noop, random)",
     "leaderboard": "rebuild the static leaderboards by scoring every committed entry",
@@ -57,6 +60,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
              "export-hf", "export-lerobot", "audit", "pack", "import-nsrm"),
     "scoring": ("score", "check-submission", "compare", "baseline", "leaderboard", "replay",
                 "rollout"),
+    "robustness": ("perturb", "robustness"),
     "learned models": ("predict", "train", "detect", "score-detections", "reconstruct"),
     "results": ("evaluate", "plot", "report"),
 }

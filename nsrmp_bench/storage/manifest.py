@@ -73,11 +73,15 @@ class Manifest:
     root_hash: str
     spec: Mapping[str, Any] | None = None
     """The split spec of an unofficial split (generated from a spec file), else None."""
+    perturbation: Mapping[str, Any] | None = None
+    """What made a perturbed copy of a part (``nsrmp-bench perturb``: kind, seed, the source
+    part's root hash, the per-instance records' sha256), else None."""
 
     @property
     def official(self) -> bool:
-        """False for data of an unofficial split (its manifest holds the spec)."""
-        return self.spec is None
+        """False for data of an unofficial split (its manifest holds the spec) and for a
+        perturbed copy of a part."""
+        return self.spec is None and self.perturbation is None
 
     @property
     def episodes(self) -> tuple[EpisodeEntry, ...]:
@@ -115,6 +119,8 @@ class Manifest:
             **({"comparison": comparison_spec()}
                if any(e.tolerant is not None for s in self.shards for e in s.episodes) else {}),
             **({"official": False, "spec": dict(self.spec)} if self.spec is not None else {}),
+            **({"official": False, "perturbation": dict(self.perturbation)}
+               if self.perturbation is not None else {}),
         }
 
     def to_json(self) -> str:
@@ -167,7 +173,9 @@ class Manifest:
             versions={str(k): str(v) for k, v in data.get("versions", {}).items()},
             shards=shards,
             root_hash=str(data["root_hash"]),
-            spec=dict(data["spec"]) if data.get("official") is False else None,
+            spec=dict(data["spec"]) if "spec" in data and data.get("official") is False
+            else None,
+            perturbation=dict(data["perturbation"]) if "perturbation" in data else None,
         )
 
 

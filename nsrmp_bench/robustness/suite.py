@@ -1,0 +1,229 @@
+"""The robustness suite: models and baselines on every perturbation of one part.
+
+For each kind, the part's perturbed copy (``perturb_part``, the suite's seed) is made once
+under ``OUT/parts/<kind>``; every source (a learned model id, run with the caller's
+``Runners.predict``, or a baseline id) writes its predictions on the unperturbed part and
+on each copy (``OUT/predictions/<kind>--<source>.jsonl``), each file is scored by the
+public scorer, and each perturbed file is compared with the unperturbed one, instance by
+instance (``scoring.compare``: the paired mean difference with its bootstrap interval).
+The table (``OUT/robustness.json``) has one row per source and kind: IoU-M and program
+exact on both, the paired IoU-M difference with its 95% interval, and how many
+instructions the kind changed. The oracle reads the gold program, not the instruction:
+its row is 1.000 everywhere and shows that a perturbation left the gold untouched.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from nsrmp_bench.baselines.registry import run_baseline
+from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.results.evaluate import Runners, Source, resolve_source
+from nsrmp_bench.robustness.kinds import CONTROLS, KINDS
+from nsrmp_bench.robustness.part import perturb_part
+from nsrmp_bench.scoring.compare import compare
+from nsrmp_bench.scoring.gold import load_episodes
+from nsrmp_bench.scoring.scorer import score
+from nsrmp_bench.storage.atomic import atomic_write_text
+from nsrmp_bench.storage.manifest import MANIFEST_NAME, read_manifest
+
+__all__ = ["CLEAN", "SUITE_FORMAT", "SUITE_SEED", "KindRow", "Suite", "read_suite",
+           "run_suite"]
+
+SUITE_SEED = 0
+"""The suite's test seed: the boards are made with it; models never train or select on
+the parts it makes (augmentation uses other seeds and another lexicon)."""
+CLEAN = "none"
+"""The name of the unperturbed part in the suite's files."""
+SUITE_FORMAT = "nsrmp-bench-robustness"
+
+Say = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class KindRow:
+    """One source on one kind, against the same source on the unperturbed part."""
+
+    source: str
+    kind: str
+    control: bool
+    changed: int
+    count: int
+    iou_m: float
+    iou_m_low: float
+    iou_m_high: float
+    clean_iou_m: float
+    diff: float
+    diff_low: float
+    diff_high: float
+    p_value: float
+    program_exact: float
+    clean_program_exact: float
+    success: float
+
+
+@dataclass(frozen=True)
+class Suite:
+    """The suite's table on one part."""
+
+    split: str
+    seed: int
+    source_root_hash: str
+    rows: tuple[KindRow, ...]
+
+    @property
+    def sources(self) -> list[str]:
+        """The sources, in the order they were given."""
+        return list(dict.fromkeys(r.source for r in self.rows))
+
+    @property
+    def kinds(self) -> list[str]:
+        """The kinds, in the suite's order."""
+        present = {r.kind for r in self.rows}
+        return [k for k in KINDS if k in present]
+
+    def row(self, source: str, kind: str) -> KindRow | None:
+        """The row of ``source`` on ``kind``, if run."""
+        return next((r for r in self.rows if r.source == source and r.kind == kind), None)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able form (``robustness.json``)."""
+        return {"format": SUITE_FORMAT, "split": self.split, "seed": self.seed,
+                "source_root_hash": self.source_root_hash,
+                "rows": [_finite(asdict(r)) for r in self.rows]}
+
+    def write(self, path: str | os.PathLike[str]) -> Path:
+        """Write the table as JSON (atomically)."""
+        text = json.dumps(self.to_dict(), indent=1, sort_keys=True) + "\n"
+        return atomic_write_text(path, text)
+
+    def markdown(self) -> str:
+        """The board: a row per source, a column per kind (paired IoU-M difference [95%
+        interval]), the controls apart (their IoU-M)."""
+        kinds = [k for k in self.kinds if k not in CONTROLS]
+        controls = [k for k in self.kinds if k in CONTROLS]
+        head = ["source", "IoU-M", *kinds, *(f"{c} (IoU-M)" for c in controls)]
+        lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for s in self.sources:
+            any_row = next(r for r in self.rows if r.source == s)
+            cells = [s, f"{any_row.clean_iou_m:.3f}"]
+            for k in kinds:
+                r = self.row(s, k)
+                cells.append("" if r is None else
+                             f"{r.diff:+.3f} [{r.diff_low:+.3f}, {r.diff_high:+.3f}]")
+            for k in controls:
+                r = self.row(s, k)
+                cells.append("" if r is None else f"{r.iou_m:.3f}")
+            lines.append("| " + " | ".join(cells) + " |")
+        return "\n".join(lines) + "\n"
+
+
+def _finite(row: dict[str, Any]) -> dict[str, Any]:
+    return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()}
+
+
+def read_suite(path: str | os.PathLike[str]) -> Suite:
+    """Read a ``robustness.json``."""
+    data = json.loads(Path(path).read_text("utf-8"))
+    if data.get("format") != SUITE_FORMAT:
+        msg = f"{path} is not a robustness table (format {data.get('format')!r})"
+        raise InvalidArgument(msg)
+    rows = tuple(KindRow(**{k: (math.nan if v is None else v)  # type: ignore[arg-type]
+                            for k, v in r.items()}) for r in data["rows"])
+    return Suite(str(data["split"]), int(data["seed"]), str(data["source_root_hash"]), rows)
+
+
+def _part(data: Path, out: Path, kind: str, seed: int, say: Say) -> Path:
+    """The perturbed copy of ``data`` for ``kind``: made, or the one already there when it
+    is the same kind, seed and source."""
+    part = out / "parts" / kind
+    source = read_manifest(data)
+    if (part / MANIFEST_NAME).exists():
+        pert = read_manifest(part).perturbation or {}
+        if (pert.get("kind"), pert.get("seed"), pert.get("source_root_hash")) == (
+                kind, seed, source.root_hash):
+            return part
+        msg = (f"{part} holds another perturbed part ({pert.get('kind')}, seed "
+               f"{pert.get('seed')}, source {pert.get('source_root_hash')}); remove it or "
+               "give another --out")
+        raise InvalidArgument(msg)
+    report = perturb_part(data, part, kind=kind, seed=seed)
+    say(f"{kind}: {report.changed} of {report.count} instructions changed")
+    return part
+
+
+def _predict(source: Source, data: Path, pred: Path, runners: Runners) -> None:
+    if source.kind == "baseline":
+        episodes, recorded = load_episodes(data)
+        run_baseline(source.name, episodes, pred, split=str(recorded))
+        return
+    if runners.predict is None:
+        msg = f"{source.name} is a learned model: pass Runners(predict=...) to run it"
+        raise InvalidArgument(msg)
+    runners.predict(source.name, data, pred)
+
+
+def run_suite(
+    sources: Sequence[str], data: str | os.PathLike[str], out: str | os.PathLike[str], *,
+    kinds: Sequence[str] = KINDS, seed: int = SUITE_SEED, runners: Runners | None = None,
+    say: Say | None = None,
+) -> Suite:
+    """Every source on ``data`` and on its perturbation by each of ``kinds``."""
+    tell: Say = say if say is not None else (lambda _line: None)
+    run_with = runners or Runners()
+    bad = [k for k in kinds if k not in KINDS]
+    if bad:
+        msg = f"kinds {bad}; expected some of {list(KINDS)}"
+        raise InvalidArgument(msg)
+    resolved = [resolve_source(s, run_with.models) for s in sources]
+    files = [s for s in resolved if s.kind == "file"]
+    if files:
+        msg = (f"{files[0].path}: the suite runs models and baselines on parts it makes; for "
+               "a predictions file of a perturbed part, use `nsrmp-bench compare` against "
+               "your predictions on the unperturbed part")
+        raise InvalidArgument(msg)
+    data_p, out_p = Path(data), Path(out)
+    manifest = read_manifest(data_p)
+    if manifest.perturbation is not None:
+        msg = f"{data_p} is a perturbed part; give the unperturbed one"
+        raise InvalidArgument(msg)
+    parts = {CLEAN: data_p, **{k: _part(data_p, out_p, k, seed, tell) for k in kinds}}
+    (out_p / "predictions").mkdir(parents=True, exist_ok=True)
+    rows: list[KindRow] = []
+    for source in resolved:
+        preds = {}
+        for kind, part in parts.items():
+            pred = out_p / "predictions" / f"{kind}--{source.name}.jsonl"
+            _predict(source, part, pred, run_with)
+            preds[kind] = pred
+        clean = score(preds[CLEAN], data_p, breakdown=False)
+        for kind in kinds:
+            pert = read_manifest(parts[kind]).perturbation or {}
+            result = score(preds[kind], parts[kind], breakdown=False)
+            paired = compare(preds[kind], preds[CLEAN], data_p, n_perm=1000).table
+            low, high = result.interval("iou_m")
+            d = {k: float(paired.at["iou_m", k]) for k in ("diff", "ci_low", "ci_high",
+                                                            "p_value")}
+            rows.append(KindRow(
+                source=source.name, kind=kind, control=kind in CONTROLS,
+                changed=int(pert.get("changed", 0)),
+                count=int(pert.get("changed", 0)) + int(pert.get("unchanged", 0)),
+                iou_m=result.headline, iou_m_low=low, iou_m_high=high,
+                clean_iou_m=clean.headline, diff=d["diff"],
+                diff_low=d["ci_low"], diff_high=d["ci_high"], p_value=d["p_value"],
+                program_exact=result.value("program_exact"),
+                clean_program_exact=clean.value("program_exact"),
+                success=result.value("success"),
+            ))
+            tell(f"{source.name} on {kind}: IoU-M {result.headline:.3f}, paired "
+                 f"{d['diff']:+.3f} [{d['ci_low']:+.3f}, {d['ci_high']:+.3f}]")
+    suite = Suite(manifest.split, seed, manifest.root_hash, tuple(rows))
+    suite.write(out_p / "robustness.json")
+    atomic_write_text(out_p / "robustness.md", suite.markdown())
+    return suite
