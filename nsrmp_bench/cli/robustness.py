@@ -39,6 +39,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         + ", ".join(KINDS) + ")")
     parser.add_argument("--seed", type=non_negative_int, default=0,
                         help="perturbation seed (default 0, the suite's test seed)")
+    parser.add_argument("--words", choices=("test", "dev"), default="test",
+                        help="word lists: test (the suite's, default; boards) or dev (for "
+                        "selecting a model on a development part)")
     parser.add_argument("--board", type=Path, default=None,
                         help="also write the table as a robustness board in this folder "
                         "(e.g. leaderboards/robustness)")
@@ -87,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
         require("torch")  # before anything is written
     say = None if args.quiet else print
     suite = run_suite(args.sources, args.data, args.out, kinds=args.kinds, seed=args.seed,
-                      runners=run_with, say=say)
+                      words=args.words, runners=run_with, say=say)
     if args.board is not None:
         stem = suite.split.replace("/", "-")
         args.board.mkdir(parents=True, exist_ok=True)

@@ -81,6 +81,7 @@ from nsrmp_bench.errors import InvalidAction, InvalidArgument, ResetNeeded, Unkn
 from nsrmp_bench.geometry.boxes import box_centres, box_iou
 from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.geometry.projection import episode_boxes, episode_camera
+from nsrmp_bench.instruction_check import MAX_INSTRUCTION_CHARS, check_instruction
 from nsrmp_bench.scene import Pose, State
 from nsrmp_bench.scoring.metrics import SUCCESS_IOU
 from nsrmp_bench.scoring.submission import Prediction
@@ -90,7 +91,7 @@ __all__ = ["BOXES", "EXECUTORS", "INSTRUCTION_CHARSET", "TabletopEnv"]
 
 EXECUTORS: Final = ("teleport", "robot")
 INSTRUCTION_CHARSET: Final = frozenset(string.printable)
-MAX_INSTRUCTION: Final = 1000
+MAX_INSTRUCTION: Final = MAX_INSTRUCTION_CHARS
 _FLOOR_Z: Final = TABLE_TOP_Z - 0.105  # an object below this has left the table
 F64 = NDArray[np.float64]
 Action = Mapping[str, Any] | GroundedStep
@@ -211,6 +212,7 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         self.action_space = spaces.Dict({"pick": point, "place": point,
                                          "done": spaces.Discrete(2)})
         self.episode: Episode | None = None
+        self._instruction = ""
         self._ended = True
         self._images: Any = None
         self._poses: F64 = np.zeros((0, 7))
@@ -278,13 +280,24 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
     # -- gymnasium API ---------------------------------------------------------------------
     def reset(self, *, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
-        """Start an instance: ``options["instance"]`` (id or index), else one drawn by seed."""
+        """Start an instance: ``options["instance"]`` (id or index), else one drawn by seed;
+        ``options["instruction"]`` replaces the instance's instruction in the observations
+        (what a person says instead; checked like every instruction, printable ASCII)."""
         super().reset(seed=seed)
         opts = dict(options or {})
-        unknown = set(opts) - {"instance"}
+        unknown = set(opts) - {"instance", "instruction"}
         if unknown:
-            msg = f"unknown reset option(s) {sorted(unknown)}; the only option is 'instance'"
+            msg = (f"unknown reset option(s) {sorted(unknown)}; the options are 'instance' "
+                   "and 'instruction'")
             raise InvalidArgument(msg)
+        said = opts.get("instruction")
+        if said is not None or "instruction" in opts:
+            said = check_instruction(said, "reset option 'instruction'")
+            odd = sorted(set(said) - INSTRUCTION_CHARSET)
+            if odd:
+                msg = (f"reset option 'instruction' holds {odd[:5]}; expected printable "
+                       "ASCII (the observation space's charset): write it without them")
+                raise InvalidArgument(msg)
         if opts.get("instance") is not None:
             index = self.source.index(opts["instance"])
         else:
@@ -298,6 +311,9 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         self.camera = episode_camera(episode)
         self._world_for(self.camera)
         self.episode = episode
+        self._instruction = check_instruction(
+            said if said is not None else episode.symbolic.instruction.text,
+            f"the instruction of episode {episode.id!r}")
         gold = episode_boxes(episode)
         self._gold_final = gold[-1]
         self._moved_gold = episode.symbolic.moved
@@ -465,7 +481,7 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         obs: dict[str, Any] = {
             "rgb": self._images.rgb.copy(),
             "depth": np.asarray(self._images.depth, dtype=np.float32).copy(),
-            "instruction": self.episode.symbolic.instruction.text,
+            "instruction": self._instruction,
             "camera": {"intrinsics": np.asarray(cam.intrinsics, dtype=np.float64).copy(),
                        "extrinsics": np.asarray(cam.extrinsics, dtype=np.float64).copy()},
         }

@@ -43,6 +43,7 @@ from nsrmp_bench.errors import InvalidArgument
 __all__ = [
     "CONTROLS",
     "KINDS",
+    "LEXICONS",
     "PERTURBATIONS",
     "Perturbed",
     "generator_words",
@@ -75,11 +76,19 @@ class Perturbed:
                 "reason": self.reason}
 
 
+LEXICONS: Final = {"test": "lexicon.json", "dev": "lexicon-dev.json"}
+"""The suite's word lists (``test``: the boards are made with it) and the development
+lists (``dev``: other words for the same kinds, for augmentation and model selection)."""
+
+
 @cache
-def lexicon() -> dict[str, Any]:
-    """The suite's word lists (``robustness/lexicon.json``)."""
-    text = resources.files("nsrmp_bench.robustness").joinpath("lexicon.json").read_text("utf-8")
-    data: dict[str, Any] = json.loads(text)
+def lexicon(name: str = "test") -> dict[str, Any]:
+    """The word lists ``name`` (``robustness/lexicon.json`` or ``lexicon-dev.json``)."""
+    if name not in LEXICONS:
+        msg = f"lexicon {name!r}; expected one of {list(LEXICONS)}"
+        raise InvalidArgument(msg)
+    files = resources.files("nsrmp_bench.robustness")
+    data: dict[str, Any] = json.loads(files.joinpath(LEXICONS[name]).read_text("utf-8"))
     return data
 
 
@@ -269,14 +278,14 @@ def _typo(text: str, rng: np.random.Generator, lex: dict[str, Any]) -> Perturbed
 
 
 @cache
-def _synonym_pattern() -> re.Pattern[str]:
-    keys = sorted(lexicon()["synonym"], key=lambda k: (-len(k), k))
+def _synonym_pattern(words: tuple[str, ...]) -> re.Pattern[str]:
+    keys = sorted(words, key=lambda k: (-len(k), k))
     return re.compile(r"\b(" + "|".join(re.escape(k) for k in keys) + r")\b", re.IGNORECASE)
 
 
 def _synonym(text: str, rng: np.random.Generator, lex: dict[str, Any]) -> Perturbed:
     table: dict[str, list[str]] = lex["synonym"]
-    spots = list(_synonym_pattern().finditer(text))
+    spots = list(_synonym_pattern(tuple(table)).finditer(text))
     if not spots:
         return Perturbed(text, False, reason="no word with a synonym in the suite's lexicon")
     take = rng.random(len(spots)) < 0.6
@@ -367,28 +376,36 @@ _CASE_OPS: Final[tuple[str, ...]] = ("lower", "upper", "no final stop", "exclama
                                      "no commas")
 
 
+def _case_edit(text: str, op: str) -> str:
+    if op == "lower":
+        return text.lower()
+    if op == "upper":
+        return text.upper()
+    if op == "no final stop":
+        return text.rstrip().rstrip(".")
+    if op == "exclamation":
+        return re.sub(r"\.?\s*$", "!", text.rstrip(), count=1)
+    return text.replace(",", "")
+
+
 def _case(text: str, rng: np.random.Generator, lex: dict[str, Any]) -> Perturbed:
+    """One or two of :data:`_CASE_OPS`, in a random order, each one that changes the text
+    (lower and upper case always do, unless the text has no letter)."""
     del lex
-    ops = rng.permutation(len(_CASE_OPS))[: 1 + int(rng.random() < 0.5)].tolist()
-    out = text
-    edits = []
-    for k in sorted(ops):
+    want = 1 + int(rng.random() < 0.5)
+    out, edits = text, list[str]()
+    for k in rng.permutation(len(_CASE_OPS)).tolist():
         op = _CASE_OPS[k]
-        before = out
-        if op == "lower":
-            out = out.lower()
-        elif op == "upper":
-            out = out.upper()
-        elif op == "no final stop":
-            out = out.rstrip().rstrip(".")
-        elif op == "exclamation":
-            out = re.sub(r"\.?\s*$", "!", out.rstrip(), count=1)
-        else:
-            out = out.replace(",", "")
-        if out != before:
+        if op in ("lower", "upper") and {"lower", "upper"} & set(edits):
+            continue
+        new = _case_edit(out, op)
+        if new != out:
+            out = new
             edits.append(op)
+        if len(edits) == want:
+            break
     if out == text:
-        return Perturbed(text, False, reason="casing and punctuation already as the edit asks")
+        return Perturbed(text, False, reason="no casing or punctuation edit changes it")
     return Perturbed(out, True, tuple(edits))
 
 
@@ -405,17 +422,18 @@ _KIND_FUNCTIONS: Final[dict[str, Callable[[str, np.random.Generator, dict[str, A
 
 
 def perturb_instruction(kind: str, text: str, rng: np.random.Generator, *, lexed: str = "",
-                        other: str | None = None) -> Perturbed:
-    """``text`` perturbed by ``kind``. ``reorder`` needs the episode's lexed instruction
-    (``lexed``: the text with ``<S1>``/``<R1>`` ... in place of the references); ``shuffled``
-    takes the other episode's instruction (``other``)."""
+                        other: str | None = None, words: str = "test") -> Perturbed:
+    """``text`` perturbed by ``kind`` with the word lists ``words`` (:data:`LEXICONS`).
+    ``reorder`` needs the episode's lexed instruction (``lexed``: the text with
+    ``<S1>``/``<R1>`` ... in place of the references); ``shuffled`` takes the other
+    episode's instruction (``other``)."""
     if kind not in KINDS:
         msg = f"perturbation kind {kind!r}; expected one of {list(KINDS)}"
         raise InvalidArgument(msg)
     if not isinstance(text, str) or not text.strip():
         msg = f"instruction {text!r}; expected a non-empty string to perturb"
         raise InvalidArgument(msg)
-    lex = lexicon()
+    lex = lexicon(words)
     if kind == "reorder":
         return _reorder(text, rng, lex, lexed)
     if kind == "polite":

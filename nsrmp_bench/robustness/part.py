@@ -111,14 +111,16 @@ def _with_text(episode: Episode, result: Perturbed) -> Episode:
 
 def perturb_part(
     src: str | os.PathLike[str], out: str | os.PathLike[str], *, kind: str, seed: int,
-    progress: Callable[[int], None] | None = None,
+    words: str = "test", progress: Callable[[int], None] | None = None,
 ) -> PerturbReport:
-    """Write the ``kind`` perturbation of part ``src`` (under ``seed``) into ``out``.
+    """Write the ``kind`` perturbation of part ``src`` (under ``seed``, with the word lists
+    ``words``: ``test``, the suite's, or ``dev``) into ``out``.
 
     ``progress`` is called with the number of episodes written after each one.
     """
     src_p, out_p = Path(src), Path(out)
     manifest = _check(src_p, out_p, kind, seed)
+    lex = lexicon(words)
     out_p.mkdir(parents=True, exist_ok=True)
     records: list[str] = []
     shard_records: list[ShardRecord] = []
@@ -141,7 +143,7 @@ def perturb_part(
                     rng = instance_rng(kind, seed, entry.index)
                     other = texts[sources[pos]] if kind == "shuffled" else None
                     result = perturb_instruction(kind, instr.text, rng, lexed=instr.lexed,
-                                                 other=other)
+                                                 other=other, words=words)
                     writer.add(_with_text(episode, result))
                     changed += result.changed
                     row: dict[str, Any] = {"index": entry.index, "id": entry.id,
@@ -158,7 +160,7 @@ def perturb_part(
     perturbation = {
         "kind": kind,
         "seed": int(seed),
-        "lexicon": str(lexicon()["version"]),
+        "lexicon": str(lex["version"]),
         "source_split": manifest.split,
         "source_root_hash": manifest.root_hash,
         "records": RECORDS_NAME,

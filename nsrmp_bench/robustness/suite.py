@@ -25,7 +25,7 @@ from typing import Any
 from nsrmp_bench.baselines.registry import run_baseline
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.results.evaluate import Runners, Source, resolve_source
-from nsrmp_bench.robustness.kinds import CONTROLS, KINDS
+from nsrmp_bench.robustness.kinds import CONTROLS, KINDS, lexicon
 from nsrmp_bench.robustness.part import perturb_part
 from nsrmp_bench.scoring.compare import compare
 from nsrmp_bench.scoring.gold import load_episodes
@@ -139,21 +139,22 @@ def read_suite(path: str | os.PathLike[str]) -> Suite:
     return Suite(str(data["split"]), int(data["seed"]), str(data["source_root_hash"]), rows)
 
 
-def _part(data: Path, out: Path, kind: str, seed: int, say: Say) -> Path:
+def _part(data: Path, out: Path, kind: str, seed: int, words: str, say: Say) -> Path:
     """The perturbed copy of ``data`` for ``kind``: made, or the one already there when it
     is the same kind, seed and source."""
     part = out / "parts" / kind
     source = read_manifest(data)
     if (part / MANIFEST_NAME).exists():
         pert = read_manifest(part).perturbation or {}
-        if (pert.get("kind"), pert.get("seed"), pert.get("source_root_hash")) == (
-                kind, seed, source.root_hash):
+        if (pert.get("kind"), pert.get("seed"), pert.get("source_root_hash"),
+                pert.get("lexicon")) == (kind, seed, source.root_hash,
+                                         lexicon(words)["version"]):
             return part
         msg = (f"{part} holds another perturbed part ({pert.get('kind')}, seed "
                f"{pert.get('seed')}, source {pert.get('source_root_hash')}); remove it or "
                "give another --out")
         raise InvalidArgument(msg)
-    report = perturb_part(data, part, kind=kind, seed=seed)
+    report = perturb_part(data, part, kind=kind, seed=seed, words=words)
     say(f"{kind}: {report.changed} of {report.count} instructions changed")
     return part
 
@@ -171,10 +172,11 @@ def _predict(source: Source, data: Path, pred: Path, runners: Runners) -> None:
 
 def run_suite(
     sources: Sequence[str], data: str | os.PathLike[str], out: str | os.PathLike[str], *,
-    kinds: Sequence[str] = KINDS, seed: int = SUITE_SEED, runners: Runners | None = None,
-    say: Say | None = None,
+    kinds: Sequence[str] = KINDS, seed: int = SUITE_SEED, words: str = "test",
+    runners: Runners | None = None, say: Say | None = None,
 ) -> Suite:
-    """Every source on ``data`` and on its perturbation by each of ``kinds``."""
+    """Every source on ``data`` and on its perturbation by each of ``kinds`` (with the word
+    lists ``words``: ``test``, the suite's, or ``dev`` for selecting a model)."""
     tell: Say = say if say is not None else (lambda _line: None)
     run_with = runners or Runners()
     bad = [k for k in kinds if k not in KINDS]
@@ -193,7 +195,7 @@ def run_suite(
     if manifest.perturbation is not None:
         msg = f"{data_p} is a perturbed part; give the unperturbed one"
         raise InvalidArgument(msg)
-    parts = {CLEAN: data_p, **{k: _part(data_p, out_p, k, seed, tell) for k in kinds}}
+    parts = {CLEAN: data_p, **{k: _part(data_p, out_p, k, seed, words, tell) for k in kinds}}
     (out_p / "predictions").mkdir(parents=True, exist_ok=True)
     rows: list[KindRow] = []
     for source in resolved:
@@ -208,8 +210,8 @@ def run_suite(
             result = score(preds[kind], parts[kind], breakdown=False)
             paired = compare(preds[kind], preds[CLEAN], data_p, n_perm=1000).table
             low, high = result.interval("iou_m")
-            d = {k: float(paired.at["iou_m", k]) for k in ("diff", "ci_low", "ci_high",
-                                                            "p_value")}
+            d = {k: float(paired.loc["iou_m", k])  # type: ignore[arg-type]
+                 for k in ("diff", "ci_low", "ci_high", "p_value")}
             rows.append(KindRow(
                 source=source.name, kind=kind, control=kind in CONTROLS,
                 changed=int(pert.get("changed", 0)),

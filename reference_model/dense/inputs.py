@@ -20,6 +20,7 @@ import torch.nn.functional as F
 from torch import Tensor
 
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.instruction_check import check_instruction
 from nsrmp_bench.reference_model.tokens import PAD, Vocabulary
 
 __all__ = ["DenseInputs", "cell_centres", "cells_of", "encode_items", "encode_part"]
@@ -118,7 +119,8 @@ def _record(item: Mapping[str, Any], scale: int, targets: bool) -> _Record:
     rgb, depth, size = _input_row(item, scale)
     return _Record(str(item["id"]), rgb.numpy(), depth.numpy(), size,
                    np.asarray(_np(item["inputs"]["boxes"]), dtype=np.float64),
-                   str(item["inputs"]["instruction"]),
+                   check_instruction(item["inputs"].get("instruction"),
+                                     f"the instruction of episode {item['id']!r}"),
                    _target_row(item) if targets else None)
 
 

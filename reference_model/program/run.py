@@ -23,6 +23,7 @@ from typing import Any, ClassVar
 import torch
 
 from nsrmp_bench.dataset import shared_camera
+from nsrmp_bench.instruction_check import check_instruction
 from nsrmp_bench.reference_model.base import (
     BEST,
     CARD,
@@ -165,7 +166,9 @@ class ProgramModelBase(ProgramPredictionModel):
     def plan_training(cls, data: Path, config: Any, seed: int) -> TrainingPlan:
         t0 = time.perf_counter()
         items, ds = read_items(data / "train")
-        vocab = Vocabulary.build(str(it["inputs"]["instruction"]) for it in items)
+        vocab = Vocabulary.build(check_instruction(it["inputs"].get("instruction"),
+                                                   f"the instruction of episode {it['id']!r}")
+                                 for it in items)
         cats = ds.collection.index.set_index("id").to_dict("index")
         val_items, val_cats, selected_on = selection_items(data, (items, cats))
         if selected_on != "val":

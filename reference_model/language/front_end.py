@@ -1,0 +1,182 @@
+"""What a person says, read into the words a program model was trained on.
+
+A program model's vocabulary is its training instructions' words; anything else reads as
+``<unk>``, and an unknown word at the edge of an instruction starts a step. The front end
+rewrites an instruction before the model reads it, word by word, then sentence by sentence:
+
+1. **casing and punctuation**: lower case; ``!``, ``?`` and ``;`` end a sentence as ``.``
+   does; a missing final stop is added.
+2. **each word the model does not know** is, in this order: a colour name read as the
+   world colour nearest in hue (:mod:`.colour_names`: ``crimson`` -> ``red``); a typo of a
+   known word (the known word at the smallest optimal-string-alignment distance, at most
+   ``typo_edits`` edits for words of ``typo_long`` letters or more and one edit for
+   shorter ones, never for words under ``typo_min`` letters; rapidfuzz); a synonym
+   (``synonyms``: the known word nearest in a sentence-embedding space, if the extra is
+   installed and the similarity clears ``synonym_threshold``); else dropped: a word
+   the model never saw carries nothing it can use.
+3. **sentences that name no object** ("Thank you.", "That's all.") are dropped: a step
+   always names the object it moves. An instruction left with no sentence asks for no
+   action, and the model predicts the empty program (nothing moves).
+4. **a fronted destination** ("To the right of the blue cube, put the red block.") goes
+   back after its clause: a sentence or clause that begins with a spatial preposition and
+   holds a comma is read with the part before that comma moved to its end.
+
+What is known in advance (the rest is the model's, learnt): the world's colour and shape
+names and the nouns for "an object" (:data:`OBJECT_WORDS`, to tell a sentence that names
+an object), English spatial prepositions (:data:`PREPOSITIONS`), colour names with their
+RGB values, and, with the ``language`` extra, a general sentence-embedding model.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Final
+
+from rapidfuzz.distance import OSA
+from rapidfuzz.process import extract
+
+from nsrmp_bench.reference_model.language.colour_names import colour_of_name
+from nsrmp_bench.vocabulary import COLOURS, SHAPES
+
+__all__ = ["OBJECT_WORDS", "PREPOSITIONS", "FrontEnd", "Reading"]
+
+OBJECT_WORDS: Final = frozenset({*COLOURS, *SHAPES, "box", "die", "brick", "block", "object",
+                                 "thing", "one"})
+"""Words that name an object: a sentence without one asks for no step (a step always
+names the object it moves)."""
+PREPOSITIONS: Final = frozenset({"on", "onto", "upon", "atop", "to", "left", "right",
+                                 "beside", "above", "over", "at", "leftwards",
+                                 "rightwards", "leftward", "rightward"})
+"""Spatial prepositions (and the two sides) that begin a fronted destination."""
+_TOKEN: Final = re.compile(r"[a-z]+|[.,!?;]")
+_ENDS: Final = frozenset(".!?;")
+_CLAUSE_STARTS: Final = frozenset({"then", "and", "next", "finally", "lastly", "afterwards"})
+
+Synonyms = Callable[[str, Sequence[str]], str | None]
+"""Nearest known word to an unknown one (or None): ``(word, known words) -> word``."""
+
+
+@dataclass(frozen=True)
+class Reading:
+    """An instruction as the model will read it, and what the front end changed."""
+
+    text: str
+    changes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def empty(self) -> bool:
+        """The instruction asks for no action: nothing is left to read."""
+        return not self.text
+
+
+class FrontEnd:
+    """Reads instructions into ``known`` words (a model's vocabulary)."""
+
+    def __init__(self, known: Iterable[str], *, typo_edits: int = 2, typo_long: int = 6,
+                 typo_min: int = 3, synonyms: Synonyms | None = None,
+                 english: frozenset[str] = frozenset()) -> None:
+        self.known = frozenset(w for w in known if w.isalpha())
+        self._choices = sorted(w for w in self.known if len(w) >= 2)
+        self.typo_edits, self.typo_long, self.typo_min = typo_edits, typo_long, typo_min
+        self.synonyms = synonyms
+        self.english = english
+        self._cache: dict[str, tuple[str | None, str]] = {}
+
+    def word(self, w: str) -> tuple[str | None, str]:
+        """A word the model knows for ``w`` (or None: drop it) and how it was found."""
+        if w in self.known:
+            return w, "known"
+        hit = self._cache.get(w)
+        if hit is None:
+            hit = self._resolve(w)
+            self._cache[w] = hit
+        return hit
+
+    def _resolve(self, w: str) -> tuple[str | None, str]:
+        colour = colour_of_name(w)
+        if colour is not None and colour in self.known:
+            return colour, "colour"
+        for suffix in ("wards", "ward", "s"):
+            stem = w.removesuffix(suffix)
+            if stem != w and stem in self.known:
+                return stem, "stem"
+        if len(w) >= self.typo_min and w not in self.english:
+            limit = self.typo_edits if len(w) >= self.typo_long else 1
+            found = extract(w, self._choices, scorer=OSA.distance, score_cutoff=limit,
+                            limit=None)
+            if found:
+                best = min(found, key=lambda m: (m[1], m[0][:1] != w[:1],
+                                                 m[0] not in OBJECT_WORDS,
+                                                 abs(len(m[0]) - len(w)), m[0]))
+                return best[0], "typo"
+        if self.synonyms is not None:
+            near = self.synonyms(w, self._choices)
+            if near is not None:
+                return near, "synonym"
+        return None, "dropped"
+
+    def read(self, text: str) -> Reading:
+        """``text`` as the model will read it (see the module doc)."""
+        changes: list[str] = []
+        sentences: list[list[str]] = [[]]
+        for tok in _TOKEN.findall(text.lower()):
+            if tok in _ENDS:
+                if sentences[-1]:
+                    sentences.append([])
+                continue
+            if tok == ",":
+                sentences[-1].append(tok)
+                continue
+            new, how = self.word(tok)
+            if how != "known":
+                changes.append(f"{tok} -> {new}" if new is not None else f"{tok} dropped")
+            if new is not None:
+                sentences[-1].append(new)
+        kept: list[list[str]] = []
+        for s in sentences:
+            words = [t for t in s if t != ","]
+            if not words:
+                continue
+            if not OBJECT_WORDS.intersection(words):
+                changes.append(f"sentence {' '.join(words)!r} dropped: it names no object")
+                continue
+            kept.append(self._unfront(s, changes))
+        text_out = " . ".join(" ".join(_tidy(s)) for s in kept)
+        return Reading(f"{text_out} ." if text_out else "", tuple(changes))
+
+    def _unfront(self, sentence: list[str], changes: list[str]) -> list[str]:
+        """A clause that begins with a preposition and holds a comma: the part before the
+        comma moved to the clause's end."""
+        out = list(sentence)
+        starts = [0] + [i + 1 for i, t in enumerate(out[:-1]) if t in _CLAUSE_STARTS]
+        for start in starts:
+            if start >= len(out) or out[start] not in PREPOSITIONS:
+                continue
+            try:
+                comma = out.index(",", start)
+            except ValueError:
+                continue
+            end = next((i for i in range(comma + 1, len(out))
+                        if out[i] == "," or (out[i] in _CLAUSE_STARTS and i > comma + 1)),
+                       len(out))
+            fronted, clause = out[start:comma], out[comma + 1:end]
+            if not OBJECT_WORDS.intersection(fronted) or not clause:
+                continue
+            changes.append(f"fronted {' '.join(fronted)!r} moved after its clause")
+            out = out[:start] + clause + fronted + out[end:]
+            break
+        return out
+
+
+def _tidy(tokens: list[str]) -> list[str]:
+    """No comma at either end of a sentence, none twice in a row."""
+    out: list[str] = []
+    for t in tokens:
+        if t == "," and (not out or out[-1] == ","):
+            continue
+        out.append(t)
+    while out and out[-1] == ",":
+        out.pop()
+    return out
