@@ -39,7 +39,7 @@ from nsrmp_bench.storage.nsrm_import import ImportReport, import_nsrm
 
 from .run import DEFAULT_SIZE, OriginalRun, RunSpec, run_original
 from .shim import SHIM_VERSION
-from .tree import ORIGINAL_COMMIT, ORIGINAL_REPOSITORY, check_pinned
+from .tree import ORIGINAL_COMMIT, ORIGINAL_REPOSITORY, check_modules, check_pinned
 
 __all__ = [
     "CAMERA_PRESET",
@@ -197,7 +197,9 @@ def stage_original(
     ``stage`` (a new folder): ``stage/<run>/NNNN`` in the original's own layout, plus
     :data:`PINS_NAME`, what was run. The runs' own folders and logs stay beside it, in
     ``stage.parent / "runs"``. Raises :class:`InvalidArgument` for a bad tree or value,
-    :class:`GenerationError` when a run keeps giving too few examples."""
+    :class:`GenerationError` when a run keeps giving too few examples, and
+    :class:`MissingExtra` (first of all) when a module the original imports is missing."""
+    check_modules()
     dg = check_pinned(tree)
     stage = Path(stage)
     if stage.exists():
@@ -275,6 +277,7 @@ def make_original_part(
     examples as the part ``out``. ``work``: keep the staging (``work/examples``) and the
     runs' folders and logs (``work/runs``) there (a new folder) instead of a temporary
     one."""
+    check_modules()
     out = Path(out)
     if out.exists() and any(out.iterdir()):
         msg = (f"--out {out} is not empty; the part is written whole: remove it or give a new "
