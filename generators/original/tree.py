@@ -102,7 +102,8 @@ def check_pinned(tree: str | Path) -> Path:
     if changed or missing:
         parts = []
         if changed:
-            parts.append(f"{len(changed)} differ ({', '.join(changed[:5])}"
+            verb = "differs" if len(changed) == 1 else "differ"
+            parts.append(f"{len(changed)} {verb} ({', '.join(changed[:5])}"
                          f"{', ...' if len(changed) > 5 else ''})")
         if missing:
             parts.append(f"{len(missing)} missing ({', '.join(missing[:5])}"
