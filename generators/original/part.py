@@ -240,16 +240,20 @@ def read_pins(stage: str | Path) -> dict[str, str]:
     return {str(k): v for k, v in pinned.items()}
 
 
-def import_staged(stage: str | Path, out: str | Path, *, split: str = "original-v1/test",
-                  shard_size: int = 1000) -> ImportReport:
-    """Import a folder made by :func:`stage_original` as the part ``out`` (new or empty),
-    its manifest's ``versions`` holding the pins."""
-    pinned = read_pins(stage)
+def _check_new_or_empty(out: str | Path) -> None:
     out = Path(out)
     if out.exists() and any(out.iterdir()):
         msg = (f"--out {out} is not empty; the part is written whole: remove it or give a new "
                "folder")
         raise InvalidArgument(msg)
+
+
+def import_staged(stage: str | Path, out: str | Path, *, split: str = "original-v1/test",
+                  shard_size: int = 1000) -> ImportReport:
+    """Import a folder made by :func:`stage_original` as the part ``out`` (new or empty),
+    its manifest's ``versions`` holding the pins."""
+    pinned = read_pins(stage)
+    _check_new_or_empty(out)
     report = import_nsrm(stage, out, split=split, shard_size=shard_size,
                          camera=pinned["camera"], versions=pinned)
     if report.imported != int(pinned.get("examples", -1)) or report.skipped:
@@ -277,12 +281,7 @@ def make_original_part(
     examples as the part ``out``. ``work``: keep the staging (``work/examples``) and the
     runs' folders and logs (``work/runs``) there (a new folder) instead of a temporary
     one."""
-    check_modules()
-    out = Path(out)
-    if out.exists() and any(out.iterdir()):
-        msg = (f"--out {out} is not empty; the part is written whole: remove it or give a new "
-               "folder")
-        raise InvalidArgument(msg)
+    _check_new_or_empty(out)
     if work is not None and Path(work).exists():
         msg = f"--work {work} exists; give a folder that does not exist yet"
         raise InvalidArgument(msg)
