@@ -16,9 +16,10 @@ simulated (objects teleported, §0). Our generator's goal (issue 28) is stated a
 figure, so it must be measured on the same machine as ours: ``scripts/bench_generate.py``
 prints our side.
 
-How (the method of §7.1-7.3): no file of the original tree is modified. A fresh Python
-process (this file with ``--shim-child``: the parent's imports do not count, the child's
-own imports of PyBullet, NumPy, OpenCV and Pillow do) pinned to one core
+How (the method of §7.1-7.3): no file of the original tree is modified. The run is
+``nsrmp_bench.generators.original.run.run_original``: a fresh Python process (the shim file,
+``generators/original/shim.py``, run as a script: the parent's imports do not count, the
+child's own imports of PyBullet, NumPy, OpenCV and Pillow do) pinned to one core
 (``os.sched_setaffinity``, the same core every run; default the last one) imports PyBullet
 and replaces three functions on the ``pybullet`` module object:
 
@@ -40,7 +41,8 @@ temporary dataset folder removed afterwards (``--keep DIR`` keeps it). ``--width
 are passed only when they are not the original's own defaults (1024x768): its parser
 reads them as strings, which the shim turns into ints. ``PYTHONBREAKPOINT=0`` disarms the
 ``breakpoint()`` left at ``program_generator.py:130`` (it then raises as it would after
-``continue``).
+``continue``). The same run makes the cross-generator TEST part
+(``nsrmp-bench import-original``).
 
 Printed per repeat and as the median of the repeats: wall seconds of the child process
 (start to exit, everything included), its CPU seconds, the seconds inside ``runpy``,
@@ -59,115 +61,28 @@ bf6ba54`` (or export it file by file from a mirror, skipping the missing
 from __future__ import annotations
 
 import argparse
-import collections
-import importlib.util
-import json
 import os
-import re
-import resource
 import shutil
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
-ORIGINAL_COMMIT = "bf6ba543e04283a122a7275f7822a595b0a193b0"
-GET_TREE = ("get it with `git clone https://github.com/dair-iitd/nsrmp && git -C nsrmp checkout "
-            f"{ORIGINAL_COMMIT[:7]}` and pass --tree nsrmp")
-NEEDED_MODULES = {"pybullet": "pybullet", "numpy": "numpy", "cv2": "opencv-python-headless",
-                  "PIL": "pillow"}
-"""What ``construct.py``'s imports need (module: the pip package that has it)."""
+from nsrmp_bench.errors import InvalidArgument, NSRMPError
+from nsrmp_bench.generators.original.run import OriginalRun, RunSpec, run_original
+from nsrmp_bench.generators.original.tree import (
+    NEEDED_MODULES,
+    check_modules,
+    data_generation_dir,
+)
 
-NO_PROGRAM = "NO compatible program found"
-NOT_CONNECTED = "Not connected to physics server"
-_PROGRESS = re.compile(  # what the original prints on its way (world.py, base.py, ...)
-    r"^(Instruction no :|##### Found one program|\.+Requesting PyBullet|\.+Sample Deleted:"
-    r"|\*+NO compatible program found|move_obj |pybullet build time:"
-    r"|\d+ \d+ \(\d+, '\w+'\) (Small Cube|Dice|Lego)$|" + re.escape(NOT_CONNECTED) + ")")
-_RUNPY_MARK = "bench_original_generator: runpy_s="
-_SHIM_FLAG = "--shim-child"
+__all__ = ["NEEDED_MODULES", "OriginalGeneratorError", "check_modules", "data_generation_dir",
+           "main", "original_seconds_per_sample", "pick_core"]
 
-
-class OriginalGeneratorError(RuntimeError):
-    """The original generator cannot be run or produced nothing; the message says why and
-    what to do."""
-
-
-@dataclass(frozen=True)
-class OriginalRun:
-    """One run of the original generator."""
-
-    wall_s: float
-    """The child process, start to exit."""
-    cpu_s: float
-    """Its user + system CPU seconds (about ``wall_s`` on a quiet machine; well below it
-    where another process shared the core)."""
-    runpy_s: float | None
-    """Seconds inside ``construct.py`` (no interpreter start, no shim imports)."""
-    scenes: int
-    sample_dirs: int
-    samples: int
-    """Sample folders with a ``demo.json`` (the §7.4 "with demo.json")."""
-    languages: tuple[str, ...]
-    """The demo.jsons' ``language_complexity`` values (``complex`` draws one per run)."""
-    no_program: int
-    other_messages: tuple[tuple[str, int], ...]
-    """The child's output lines that are neither progress nor expected, with counts."""
-    dataset: Path | None
-    """Where the dataset was kept (``keep``), else None (removed)."""
-
-    @property
-    def seconds_per_sample(self) -> float:
-        """Wall seconds per sample with a demo.json (§7.4)."""
-        return self.wall_s / self.samples
-
-
-def data_generation_dir(tree: Path, template: str = "SingleStep") -> Path:
-    """The tree's ``data_generation`` folder, after checking it is the original's layout
-    and has ``template``; raises :class:`OriginalGeneratorError` saying what is wrong."""
-    tree = Path(tree)
-    if not tree.is_dir():
-        what = "is a file" if tree.exists() else "does not exist"
-        msg = (
-            f"--tree {tree} {what}; expected the root of the original NSRMP repository "
-            f"(dair-iitd/nsrmp at {ORIGINAL_COMMIT[:7]}): {GET_TREE}")
-        raise OriginalGeneratorError(msg)
-    dg = tree / "data_generation"
-    needed = ["construct.py", "configs.py", "manage.py", "panda/construct/program_generator.py",
-              "panda/construct/metadata.json"]
-    missing = [n for n in needed if not (dg / n).is_file()]
-    if missing:
-        msg = (
-            f"--tree {tree} is not the original NSRMP repository's layout: "
-            f"{', '.join('data_generation/' + m for m in missing)} missing; expected the "
-            f"root of dair-iitd/nsrmp at {ORIGINAL_COMMIT[:7]} (the folder that holds "
-            f"data_generation/): {GET_TREE}")
-        raise OriginalGeneratorError(msg)
-    templates = dg / "panda" / "construct" / "templates"
-    if not (templates / f"{template}.json").is_file():
-        have = sorted(p.stem for p in templates.glob("*.json"))
-        msg = (
-            f"--template {template}: no {templates / (template + '.json')}; expected one of "
-            f"{', '.join(have) or '(none: the templates folder is empty or missing)'}")
-        raise OriginalGeneratorError(msg)
-    return dg
-
-
-def check_modules() -> None:
-    """Raises :class:`OriginalGeneratorError` naming the modules ``construct.py`` needs
-    that this interpreter (the child's) lacks, with the ``pip install`` that adds them."""
-    missing = [m for m in NEEDED_MODULES if importlib.util.find_spec(m) is None]
-    if missing:
-        msg = (
-            f"the original generator needs the module(s) {', '.join(missing)}, which "
-            f"{sys.executable} cannot import: `{sys.executable} -m pip install "
-            f"{' '.join(NEEDED_MODULES[m] for m in missing)}`")
-        raise OriginalGeneratorError(msg)
+OriginalGeneratorError = NSRMPError
+"""What this script raises: the package's errors (a bad tree or value, a missing module,
+a run that failed or produced nothing), each saying why and what to do."""
 
 
 def pick_core(core: int | None) -> int | None:
@@ -182,12 +97,8 @@ def pick_core(core: int | None) -> int | None:
         msg = (
             f"--core {core}: this process may run only on cores {allowed}; pass one of them "
             f"(or leave --core out for the last, {allowed[-1]})")
-        raise OriginalGeneratorError(msg)
+        raise InvalidArgument(msg)
     return core
-
-
-def _tail(text: str, lines: int = 25) -> str:
-    return "\n".join(text.rstrip().splitlines()[-lines:])
 
 
 def original_seconds_per_sample(
@@ -196,23 +107,14 @@ def original_seconds_per_sample(
         height: int = 768, core: int | None = None, keep: Path | None = None) -> OriginalRun:
     """Runs the original generator once (see the module doc) and times it.
 
-    ``keep``: a folder that must not exist yet; the dataset and the child's output
-    (``output.log``) are left there instead of being removed.
-    Raises :class:`OriginalGeneratorError` for a bad tree, template, value, core or a
-    missing module, and when the child fails or writes no sample with a demo.json.
+    ``keep``: a folder that must not exist yet; the dataset (``keep/dataset``) and the
+    child's output (``keep/dataset.log``) are left there instead of being removed.
+    Raises the package's errors for a bad tree, template, value, core or a missing module,
+    and when the child fails or writes no sample with a demo.json.
     """
-    dg = data_generation_dir(tree, template)
-    if scenes < 1 or objects < 1 or width < 1 or height < 1:
-        msg = (
-            f"scenes={scenes}, objects={objects}, width={width}, height={height}: each "
-            "must be at least 1")
-        raise OriginalGeneratorError(msg)
-    if language not in ("simple", "complex") or object_type not in ("any", "cube"):
-        msg = (
-            f"language={language!r}, type={object_type!r}: expected language 'simple' or "
-            "'complex' (complex draws complex or compound per run, §3.4) and type 'any' or "
-            "'cube' (construct.py's only two)")
-        raise OriginalGeneratorError(msg)
+    spec = RunSpec(template, objects, language, scenes, seed, object_type, width, height)
+    spec.check()
+    data_generation_dir(tree, template)
     check_modules()
     pin = pick_core(core)
     if keep is not None:
@@ -221,130 +123,16 @@ def original_seconds_per_sample(
             msg = (
                 f"--keep {keep} exists; the original numbers samples by the folder's entry "
                 "count, so it needs a new folder: pass a path that does not exist yet")
-            raise OriginalGeneratorError(msg)
+            raise InvalidArgument(msg)
         keep.mkdir(parents=True)
         work = keep
     else:
         work = Path(tempfile.mkdtemp(prefix="nsrmp-original-"))
-    dataset = work / "dataset"  # construct.py makes it (os.mkdir)
-    construct_args = [
-        "--template_file", f"./panda/construct/templates/{template}.json",
-        "--metadata_file", "./panda/construct/metadata.json",
-        "--dataset_dir", str(dataset), "--type", object_type, "--max_objects", str(objects),
-        "--language", language, "--num_examples", str(scenes)]
-    if (width, height) != (1024, 768):
-        construct_args += ["--width", str(width), "--height", str(height)]
-    cmd = [sys.executable, str(Path(__file__).resolve()), _SHIM_FLAG, str(dg), str(seed),
-           *construct_args]
-    env = {**os.environ, "PYTHONBREAKPOINT": "0", "PYTHONHASHSEED": "0",
-           "PYTHONUNBUFFERED": "1"}
-    log = work / "output.log"
     try:
-        with log.open("wb") as out:
-            before = resource.getrusage(resource.RUSAGE_CHILDREN)
-            start = time.perf_counter()
-            proc = subprocess.run(
-                cmd, cwd=dg, env=env, stdin=subprocess.DEVNULL, stdout=out,
-                stderr=subprocess.STDOUT, check=False,
-                preexec_fn=None if pin is None else (lambda: os.sched_setaffinity(0, {pin})))
-            wall = time.perf_counter() - start
-            after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        text = log.read_text(errors="replace")
-        dirs = [d for d in dataset.iterdir() if d.is_dir()] if dataset.is_dir() else []
-        demos = [d / "demo.json" for d in dirs if (d / "demo.json").is_file()]
-        samples = len(demos)
-        drawn = sorted({str(json.loads(f.read_text()).get("language_complexity"))
-                        for f in demos})
+        return run_original(tree, work / "dataset", spec, core=pin)
     finally:
         if keep is None:
             shutil.rmtree(work, ignore_errors=True)
-    missing_module = re.search(r"No module named '([^']+)'", text)
-    if proc.returncode != 0 and missing_module:
-        name = missing_module.group(1)
-        msg = (
-            f"the original generator needs the module {name}, which {sys.executable} cannot "
-            f"import: `{sys.executable} -m pip install "
-            f"{NEEDED_MODULES.get(name.split('.')[0], name.split('.')[0])}`")
-        raise OriginalGeneratorError(msg)
-    if proc.returncode != 0 or samples == 0:
-        why = (f"exited with code {proc.returncode}" if proc.returncode != 0
-               else f"wrote no sample with a demo.json ({len(dirs)} sample folders)")
-        msg = (
-            f"the original generator ({dg / 'construct.py'}, {template}, {objects} objects, "
-            f"{language}, {scenes} scenes) {why}; the end of its output:\n{_tail(text)}")
-        raise OriginalGeneratorError(msg)
-    runpy_s = None
-    other: collections.Counter[str] = collections.Counter()
-    for line in text.splitlines():
-        line = line.strip()
-        if line.startswith(_RUNPY_MARK):
-            runpy_s = float(line[len(_RUNPY_MARK):])
-        elif line and not _PROGRESS.match(line):
-            other[line[:160]] += 1
-    return OriginalRun(
-        wall_s=wall,
-        cpu_s=(after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime),
-        runpy_s=runpy_s, scenes=scenes, sample_dirs=len(dirs), samples=samples,
-        languages=tuple(drawn), no_program=text.count(NO_PROGRAM),
-        other_messages=tuple(other.most_common()),
-        dataset=dataset if keep is not None else None)
-
-
-def _shim_child(argv: list[str]) -> None:
-    """The child: patch PyBullet (module doc, 1-3), seed, run construct.py as __main__.
-    ``argv``: the data_generation folder, the seed, then construct.py's arguments."""
-    dg, seed, construct_args = argv[0], int(argv[1]), argv[2:]
-    import random
-    import runpy
-
-    import numpy as np
-    import pybullet as p
-
-    real_connect = p.connect
-    real_camera_image = p.getCameraImage
-    camera: dict[str, Any] = {}
-
-    def connect(method: int, *args: Any, **kwargs: Any) -> int:
-        if method == p.GUI:
-            return int(real_connect(p.DIRECT))
-        return int(real_connect(method, *args, **kwargs))
-
-    def reset_debug_visualizer_camera(cameraDistance: float, cameraYaw: float,
-                                      cameraPitch: float, cameraTargetPosition: Sequence[float],
-                                      **_: Any) -> None:
-        camera.update(distance=cameraDistance, yaw=cameraYaw, pitch=cameraPitch,
-                      target=list(cameraTargetPosition))
-
-    def get_camera_image(width: int, height: int, viewMatrix: Any = None,
-                         projectionMatrix: Any = None, **kwargs: Any) -> Any:
-        w, h = int(width), int(height)
-        if viewMatrix is None and projectionMatrix is None:
-            if not camera:
-                msg = "getCameraImage without matrices before resetDebugVisualizerCamera"
-                raise RuntimeError(msg)
-            viewMatrix = p.computeViewMatrixFromYawPitchRoll(
-                camera["target"], camera["distance"], camera["yaw"], camera["pitch"], 0, 2)
-            a = w / h
-            projectionMatrix = p.computeProjectionMatrix(-a * 0.01, a * 0.01, -0.01, 0.01,
-                                                         0.01, 1000)
-            kwargs.setdefault("renderer", p.ER_TINY_RENDERER)
-        return real_camera_image(w, h, viewMatrix, projectionMatrix, **kwargs)
-
-    p.connect = connect
-    p.resetDebugVisualizerCamera = reset_debug_visualizer_camera
-    p.getCameraImage = get_camera_image
-
-    os.chdir(dg)
-    sys.path[0] = dg  # as `python construct.py` run from data_generation
-    script = os.path.join(dg, "construct.py")
-    sys.argv = [script, *construct_args]
-    random.seed(seed)
-    np.random.seed(seed)
-    start = time.perf_counter()
-    try:
-        runpy.run_path(script, run_name="__main__")
-    finally:
-        print(f"{_RUNPY_MARK}{time.perf_counter() - start:.3f}", file=sys.stderr, flush=True)
 
 
 def _load() -> str:
@@ -354,9 +142,6 @@ def _load() -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args_in = list(sys.argv[1:] if argv is None else argv)
-    if args_in[:1] == [_SHIM_FLAG]:
-        _shim_child(args_in[1:])
-        return 0
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0] if __doc__ else None)
     ap.add_argument("--tree", type=Path, required=True,
                     help="root of dair-iitd/nsrmp at bf6ba54 (holds data_generation/)")
@@ -394,22 +179,23 @@ def main(argv: Sequence[str] | None = None) -> int:
             runs.append(run)
             runpy_s = "?" if run.runpy_s is None else f"{run.runpy_s:.1f}"
             print(f"  run {i + 1}/{args.repeat}: wall {run.wall_s:.1f} s (CPU {run.cpu_s:.1f} s, "
-                  f"construct.py {runpy_s} s), {run.scenes} scenes, {run.sample_dirs} sample "
-                  f"dirs, {run.samples} with demo.json: {run.seconds_per_sample:.3f} s / "
-                  f"sample; language {'/'.join(run.languages)}; {run.no_program} x no "
-                  f"program; after, {_load()}")
+                  f"construct.py {runpy_s} s), {run.spec.scenes} scenes, {run.sample_dirs} "
+                  f"sample dirs, {len(run.samples)} with demo.json: "
+                  f"{run.seconds_per_sample:.3f} s / sample; language "
+                  f"{'/'.join(run.languages)}; {run.no_program} x no program; after, "
+                  f"{_load()}")
             for message, count in run.other_messages[:8]:
                 print(f"      {count:3d} x {message}")
-            if run.dataset is not None:
+            if args.keep is not None:
                 print(f"      kept: {run.dataset}")
     except OriginalGeneratorError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     med = statistics.median
     print(f"median of {len(runs)}: wall {med(r.wall_s for r in runs):.1f} s, "
-          f"{med(r.samples for r in runs):g} samples with demo.json, "
+          f"{med(len(r.samples) for r in runs):g} samples with demo.json, "
           f"{med(r.seconds_per_sample for r in runs):.3f} s / sample (wall), "
-          f"{med(r.cpu_s / r.samples for r in runs):.3f} s / sample (CPU)")
+          f"{med(r.cpu_s / max(len(r.samples), 1) for r in runs):.3f} s / sample (CPU)")
     return 0
 
 

@@ -32,6 +32,7 @@ VERBS: dict[str, str] = {
     "download": "fetch a split's shards from a mirror, verified against the registry",
     "export-mcap": "export stored episodes to MCAP (Foxglove schemas) for viewing",
     "import-nsrm": "convert the original NSRM release layout into nsrmp-bench shards",
+    "import-original": "run the original authors' generator (pinned tree) into a TEST part",
     "score": "score a predictions file against a split's data",
     "compare": "paired comparison of two predictions files on the same split",
     "perturb": "a perturbed copy of a part (polite, typo, synonym, ...; blind and shuffled "
@@ -57,7 +58,8 @@ VERBS: dict[str, str] = {
 
 GROUPS: dict[str, tuple[str, ...]] = {
     "data": ("generate", "download", "verify", "info", "show", "sample", "export-mcap",
-             "export-hf", "export-lerobot", "audit", "pack", "import-nsrm"),
+             "export-hf", "export-lerobot", "audit", "pack", "import-nsrm",
+             "import-original"),
     "scoring": ("score", "check-submission", "compare", "baseline", "leaderboard", "replay",
                 "rollout"),
     "robustness": ("perturb", "robustness"),

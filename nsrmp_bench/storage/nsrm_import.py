@@ -41,7 +41,7 @@ import json
 import math
 import os
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final
@@ -409,8 +409,12 @@ def import_nsrm(
     camera: str = "auto",
     images: bool = True,
     progress: Callable[[int, int], None] | None = None,
+    versions: Mapping[str, str] | None = None,
 ) -> ImportReport:
-    """Convert the original release under ``src`` into shards + manifest under ``out``."""
+    """Convert the original release under ``src`` into shards + manifest under ``out``.
+
+    ``versions``: more entries for the manifest's ``versions`` (what made the data); the
+    ``source`` and ``importer`` entries stay the importer's."""
     base = Path(src)
     examples, broken = find_examples(base)
     if not examples:
@@ -424,7 +428,8 @@ def import_nsrm(
         return ep
 
     manifest = write_dataset(out, make, 0, len(examples), shard_size=shard_size, split=split,
-                             versions={"source": "dair-iitd/nsrmp release layout",
+                             versions={**(versions or {}),
+                                       "source": "dair-iitd/nsrmp release layout",
                                        "importer": GENERATOR_ID})
     with open_collection(out) as coll:
         with_images = sum(ep.rendering is not None for ep in coll.iter_episodes())

@@ -41,6 +41,7 @@ CASES = [
     (["reconstruct", "PRED", "--data", "DATA", "--out", "OUT"], "torch"),
     (["reconstruct", "PRED", "--data", "DATA", "--out", "OUT", "--renderer", "sim"], "sim"),
     (["evaluate", "nsrm", "--data-root", "DATA", "--out", "OUT"], "torch"),
+    (["import-original", "DATA", "--out", "OUT", "--examples", "3"], "sim"),
 ]
 
 

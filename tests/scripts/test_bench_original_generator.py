@@ -137,7 +137,7 @@ def test_shim_runs_a_stand_in_and_counts(bench: ModuleType, tmp_path: Path) -> N
     runs = [bench.original_seconds_per_sample(tree, scenes=2, seed=3, width=8, height=6,
                                               keep=keep / str(i)) for i in range(2)]
     run = runs[0]
-    assert (run.scenes, run.sample_dirs, run.samples, run.no_program) == (2, 2, 2, 2)
+    assert (run.spec.scenes, run.sample_dirs, len(run.samples), run.no_program) == (2, 2, 2, 2)
     assert run.other_messages == (("'complex'", 2),)
     assert run.languages == ("simple",)
     assert run.seconds_per_sample == pytest.approx(run.wall_s / 2)
