@@ -26,7 +26,8 @@ from nsrmp_bench.engine import Engine, InlineEngine, TaskReport, in_task_order
 from nsrmp_bench.errors import DataIntegrityError, NSRMPError
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.plurals import counted
-from nsrmp_bench.split_specs import SplitSpec, withdrawal
+from nsrmp_bench.private_parts import commitment_problem
+from nsrmp_bench.split_specs import SplitSpec, load_split, withdrawal
 from nsrmp_bench.storage.hashing import episode_hash, root_hash
 from nsrmp_bench.storage.manifest import Manifest, read_manifest
 from nsrmp_bench.storage.reader import read_episode
@@ -225,9 +226,12 @@ def _spec_problem(manifest: Manifest, spec: SplitSpec) -> str | None:
 
 def verify(
     data_dir: str | os.PathLike[str], *, deep: bool = True, spec: SplitSpec | None = None,
-    engine: Engine | None = None,
+    engine: Engine | None = None, secret: str | None = None,
 ) -> VerifyReport:
     """Check ``data_dir`` (a part directory with ``manifest.json``).
+
+    A private part's manifest holds a commitment to its secret; with ``secret`` (the
+    revealed one) the commitment is opened, and a wrong secret is a problem.
 
     Data of an unofficial split (generated from a spec file) is checked against its own
     manifest only; with ``spec`` the manifest's spec must also be that one. The shards are
@@ -254,6 +258,7 @@ def verify(
     report.root_hash = root_hash(recomputed.items())
     if report.root_hash != manifest.root_hash and not report.problems:
         report.problems.append("root hash differs from manifest.json although episodes match")
+    _check_commitment(report, manifest, secret)
     if not manifest.official:
         report.notes.append(f"unofficial split {manifest.split} (made from a spec file; the "
                             "spec is in its manifest): no committed manifest to compare")
@@ -310,6 +315,30 @@ def verify(
             f"(indices {cmp.missing[0]}..{cmp.missing[-1]}): {fix}"
         )
     return report
+
+
+def _check_commitment(report: VerifyReport, manifest: Manifest, secret: str | None) -> None:
+    """A private part's commitment, opened with the revealed ``secret`` when given."""
+    split_id, _, part = manifest.split.partition("/")
+    if manifest.private is None:
+        if secret is not None:
+            report.problems.append(
+                f"a secret was given, but {manifest.split} is not a private part (its "
+                "manifest holds no commitment); verify it without --secret-file")
+        return
+    if secret is None:
+        report.notes.append(
+            f"private part: its entropy is a secret, committed to by "
+            f"{manifest.private.get('commitment', '')[:16]}...; once the secret is revealed, "
+            "`nsrmp-bench verify DATA --secret-file SECRET` opens the commitment")
+        return
+    spec = manifest.spec if manifest.spec is not None else load_split(split_id).to_dict()
+    problem = commitment_problem(manifest.private, spec, part, secret)
+    if problem is not None:
+        report.problems.append(problem)
+    else:
+        report.notes.append("the revealed secret opens the manifest's commitment: this part "
+                            "was generated from it (regenerate with it to compare the data)")
 
 
 def require_ok(report: VerifyReport) -> None:

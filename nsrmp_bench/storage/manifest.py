@@ -15,6 +15,7 @@ Layout (keys sorted; one episode row per line, so diffs stay readable)::
                    "relation_needed", "phrasing", "template"[, "tolerant"]}, ...]
      ["comparison": {...}]  only with robot episodes: how they are compared
      ["official": false, "spec": {...}]  only for a split generated from a spec file
+     ["private": {"scheme", "commitment"}]  only for a private part (its entropy a secret)
     }
 
 Robot episodes are not bit-stable across CPUs: their rows carry a ``tolerant`` summary and
@@ -73,6 +74,8 @@ class Manifest:
     root_hash: str
     spec: Mapping[str, Any] | None = None
     """The split spec of an unofficial split (generated from a spec file), else None."""
+    private: Mapping[str, str] | None = None
+    """A private part's commitment to its secret (:mod:`nsrmp_bench.private_parts`)."""
 
     @property
     def official(self) -> bool:
@@ -115,6 +118,7 @@ class Manifest:
             **({"comparison": comparison_spec()}
                if any(e.tolerant is not None for s in self.shards for e in s.episodes) else {}),
             **({"official": False, "spec": dict(self.spec)} if self.spec is not None else {}),
+            **({"private": dict(self.private)} if self.private is not None else {}),
         }
 
     def to_json(self) -> str:
@@ -168,6 +172,8 @@ class Manifest:
             shards=shards,
             root_hash=str(data["root_hash"]),
             spec=dict(data["spec"]) if data.get("official") is False else None,
+            private={str(k): str(v) for k, v in data["private"].items()}
+            if isinstance(data.get("private"), dict) else None,
         )
 
 
@@ -178,11 +184,13 @@ def build_manifest(
     generator: str | None = None,
     versions: Mapping[str, str] | None = None,
     spec: Mapping[str, Any] | None = None,
+    private: Mapping[str, str] | None = None,
 ) -> Manifest:
     """A manifest over ``records``, which must tile a contiguous index range.
 
     ``generator`` defaults to the generator ids the shards record; ``spec`` is the split
-    spec of an unofficial split (None for a shipped one).
+    spec of an unofficial split (None for a shipped one); ``private`` a private part's
+    commitment.
     """
     ordered = sorted(records, key=lambda r: r.start)
     for a, b in itertools.pairwise(ordered):
@@ -215,6 +223,7 @@ def build_manifest(
         shards=tuple(ordered),
         root_hash=root_hash(entries),
         spec=spec,
+        private=private,
     )
 
 
