@@ -16,6 +16,8 @@ Layout (keys sorted; one episode row per line, so diffs stay readable)::
      ["comparison": {...}]  only with robot episodes: how they are compared
      ["official": false, "spec": {...}]  only for a split generated from a spec file
      ["private": {"scheme", "commitment"}]  only for a private part (its entropy a secret)
+     ["inputs_only": true]  only for a part packed without its gold (rows keep index, id,
+                            hash, objects; counts only episodes, shards, objects)
     }
 
 Robot episodes are not bit-stable across CPUs: their rows carry a ``tolerant`` summary and
@@ -53,10 +55,10 @@ def _key(value: Any) -> str:
     return value if isinstance(value, str) else json.dumps(value)
 
 
-def _counts(records: Sequence[ShardRecord]) -> dict[str, Any]:
+def _counts(records: Sequence[ShardRecord], *, inputs_only: bool = False) -> dict[str, Any]:
     eps = [e for r in records for e in r.episodes]
     out: dict[str, Any] = {"episodes": len(eps), "shards": len(records)}
-    for key in ("steps", "objects", "relational", "phrasing"):
+    for key in ("objects",) if inputs_only else ("steps", "objects", "relational", "phrasing"):
         c = Counter(_key(e.categories.get(key)) for e in eps)
         out[key] = dict(sorted(c.items()))
     return out
@@ -76,6 +78,8 @@ class Manifest:
     """The split spec of an unofficial split (generated from a spec file), else None."""
     private: Mapping[str, str] | None = None
     """A private part's commitment to its secret (:mod:`nsrmp_bench.private_parts`)."""
+    inputs_only: bool = False
+    """Whether the part was packed without its gold (:mod:`nsrmp_bench.storage.inputs_only`)."""
 
     @property
     def official(self) -> bool:
@@ -111,7 +115,7 @@ class Manifest:
             "generator": self.generator,
             "versions": dict(self.versions),
             "index_range": list(self.index_range),
-            "counts": _counts(self.shards),
+            "counts": _counts(self.shards, inputs_only=self.inputs_only),
             "root_hash": self.root_hash,
             "shards": [s.to_dict(with_episodes=False) for s in self.shards],
             "episodes": rows,
@@ -119,6 +123,7 @@ class Manifest:
                if any(e.tolerant is not None for s in self.shards for e in s.episodes) else {}),
             **({"official": False, "spec": dict(self.spec)} if self.spec is not None else {}),
             **({"private": dict(self.private)} if self.private is not None else {}),
+            **({"inputs_only": True} if self.inputs_only else {}),
         }
 
     def to_json(self) -> str:
@@ -174,6 +179,7 @@ class Manifest:
             spec=dict(data["spec"]) if data.get("official") is False else None,
             private={str(k): str(v) for k, v in data["private"].items()}
             if isinstance(data.get("private"), dict) else None,
+            inputs_only=data.get("inputs_only") is True,
         )
 
 
