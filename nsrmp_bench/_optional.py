@@ -37,6 +37,7 @@ _EXTRA_OF: dict[str, str] = {
     "gymnasium": "gym",
     "datasets": "export",
     "mlcroissant": "export",
+    "yaml": "challenge",
 }
 
 

@@ -37,6 +37,7 @@ VERBS: dict[str, str] = {
     "check-submission": "validate a predictions file without scoring it",
     "baseline": "write a non-learned baseline's predictions (oracle, noop, random)",
     "leaderboard": "rebuild the static leaderboards by scoring every committed entry",
+    "challenge": "write an EvalAI challenge bundle (public and private test) for the scorer",
     "rollout": "run a policy in closed loop (Gymnasium env) on a part; write the achieved boxes",
     "export-hf": "export a split as Hugging Face datasets Parquet shards with a dataset card",
     "export-lerobot": "export a split in the LeRobot v3.0 dataset layout",
@@ -55,8 +56,8 @@ VERBS: dict[str, str] = {
 GROUPS: dict[str, tuple[str, ...]] = {
     "data": ("generate", "download", "verify", "info", "show", "sample", "export-mcap",
              "export-hf", "export-lerobot", "audit", "pack", "import-nsrm"),
-    "scoring": ("score", "check-submission", "compare", "baseline", "leaderboard", "replay",
-                "rollout"),
+    "scoring": ("score", "check-submission", "compare", "baseline", "leaderboard", "challenge",
+                "replay", "rollout"),
     "learned models": ("predict", "train", "detect", "score-detections", "reconstruct"),
     "results": ("evaluate", "plot", "report"),
 }
