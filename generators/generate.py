@@ -273,8 +273,7 @@ def _private_record(spec: SplitSpec, part: str, secret: str | None) -> dict[str,
     if not ps.private:
         return None
     if secret is None:
-        ps.seed_entropy(spec.id)  # raises, saying how to give the secret
-    assert secret is not None
+        raise ps.missing_secret(spec.id)
     return commitment_record(spec, part, secret)
 
 

@@ -127,14 +127,18 @@ class PartSpec:
     private: bool = False
     """Whether the entropy comes from a secret (the spec says ``"entropy": "secret"``)."""
 
+    def missing_secret(self, split_id: str) -> InvalidArgument:
+        """The error of using this private part without its secret: how to give it."""
+        return InvalidArgument(
+            f"part {self.name!r} of split {split_id} is private (its entropy is "
+            f"{PRIVATE_ENTROPY!r}): give its secret with --secret-file PATH or the "
+            "environment variable NSRMP_BENCH_SECRET")
+
     def seed_entropy(self, split_id: str) -> int:
         """The entropy instances are drawn from; a private part without its secret is an
         error saying how to give it."""
         if self.entropy is None:
-            msg = (f"part {self.name!r} of split {split_id} is private (its entropy is "
-                   f"{PRIVATE_ENTROPY!r}): give its secret with --secret-file PATH or the "
-                   "environment variable NSRMP_BENCH_SECRET")
-            raise InvalidArgument(msg)
+            raise self.missing_secret(split_id)
         return self.entropy
 
     def cells(self) -> list[tuple[Stratum, tuple[int, int, str, str]]]:

@@ -73,19 +73,18 @@ def run(args: argparse.Namespace) -> int:
     for part in parts:
         ps = spec.part(part)  # unknown part: a clear error before any work
         if ps.private and secret is None:
-            ps.seed_entropy(spec.id)  # a private part without its secret: say how to give it
-    args.secret = secret
+            raise ps.missing_secret(spec.id)
     require("pybullet")  # before any work, also of pool workers that would import it
     from nsrmp_bench.generators import generate as gen
 
     console = Console(stderr=True)
     with engine_from_args(args) as engine:
-        return max((_generate(gen, spec, part, engine, args, console) for part in parts),
-                   default=0)
+        return max((_generate(gen, spec, part, engine, args, console, secret)
+                    for part in parts), default=0)
 
 
 def _generate(gen: Any, spec: Any, part: str, engine: Any, args: argparse.Namespace,
-              console: Console) -> int:
+              console: Console, secret: str | None) -> int:
     """One part: generate, print the summary, compare with the committed manifest."""
     out = args.out / part
     t0 = time.perf_counter()
@@ -98,7 +97,7 @@ def _generate(gen: Any, spec: Any, part: str, engine: Any, args: argparse.Namesp
         manifest, stats = gen.generate_part(
             spec, part, out, engine=engine, shard_size=args.shard_size,
             limit=args.limit, on_start=on_start,
-            on_progress=lambda n: progress.advance(task, n), secret=args.secret,
+            on_progress=lambda n: progress.advance(task, n), secret=secret,
         )
     wall = time.perf_counter() - t0
     rate = stats.episodes / wall if stats.episodes else 0.0
