@@ -1,15 +1,19 @@
-"""Write the protocol fields into every leaderboard entry (``leaderboards/entries/*.json``).
+"""Write the protocol fields into every leaderboard entry (``leaderboards/entries/*.json``)
+and into the header of its predictions file.
 
 Usage::
 
-    python scripts/protocol_fields.py            # rewrite the entries
-    python scripts/protocol_fields.py --check    # exit 1 where an entry differs
+    python scripts/protocol_fields.py            # rewrite the entries and headers
+    python scripts/protocol_fields.py --check    # exit 1 where one differs
 
 Each entry's ``"protocol"`` is recomputed from facts only: the shipped checkpoints' table
 (``reference_model/protocols.json``; a ``MODEL+DETECTOR`` entry joins the detector's), the
 baselines' registry (the random baseline's seed from its predictions header), the scorer
 the predictions header names, and the root hash of the committed manifest of the entry's
-split part. The predictions files are not touched, so every board's figures stay the same.
+split part. Only a predictions file's first line (its header) is rewritten, with
+``"protocol"`` added last; every prediction line keeps its bytes, so every board's figures
+stay the same. Rebuild the site's copies after a change (``nsrmp-bench leaderboard
+--site-only``).
 """
 
 from __future__ import annotations
@@ -56,6 +60,14 @@ def protocol_of(entry_file: Path) -> ProtocolFields:
     return fields
 
 
+def _header_line(predictions: Path, protocol: dict[str, Any]) -> tuple[bytes, bytes]:
+    """The file's first line as it is and as it should be (the header with ``protocol``)."""
+    first = predictions.read_bytes().split(b"\n", 1)[0]
+    header = json.loads(first)
+    header["header"]["protocol"] = protocol
+    return first, json.dumps(header, allow_nan=False).encode("utf-8")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--check", action="store_true", help="only report differences")
@@ -64,14 +76,19 @@ def main(argv: list[str] | None = None) -> int:
     for path in sorted(ENTRIES.glob("*.json")):
         data = json.loads(path.read_text("utf-8"))
         want = protocol_of(path).to_dict()
-        if data.get("protocol") == want:
+        predictions = (path.parent / data["predictions"]).resolve()
+        first, line = _header_line(predictions, want)
+        if data.get("protocol") == want and first == line:
             continue
         differ += 1
         if args.check:
-            print(f"{path.name}: protocol differs from the recomputed one")
+            print(f"{path.name}: protocol (entry or predictions header) differs from the "
+                  "recomputed one")
             continue
         data["protocol"] = want
         path.write_text(json.dumps(data, indent=1, ensure_ascii=False) + "\n", "utf-8")
+        rest = predictions.read_bytes()[len(first):]
+        predictions.write_bytes(line + rest)
     print(f"{differ} entr{'y' if differ == 1 else 'ies'} "
           f"{'differ' if args.check else 'rewritten'}")
     return 1 if args.check and differ else 0

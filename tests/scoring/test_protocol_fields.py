@@ -1,5 +1,6 @@
-"""Protocol fields: every committed leaderboard entry states them truly (the script that
-writes them finds nothing to change, and each root hash is its part's committed one);
+"""Protocol fields: every committed leaderboard entry and its predictions header state them
+truly (the script that writes them finds nothing to change, and each root hash is its
+part's committed one);
 `baseline` writes them into the header; `check-submission` checks them, refusing a file
 made on another manifest and a malformed field with the fix; the leaderboard refuses an
 entry whose protocol names another part."""
@@ -38,6 +39,8 @@ def test_every_committed_entry_states_its_protocol_truly() -> None:
         assert entry.protocol.boxes == (f"detected:{detector}" if detector else "gold")
         if entry.kind == "baseline":
             assert entry.protocol.training_parts == ()
+        header = json.loads(entry.predictions.read_text().split("\n", 1)[0])["header"]
+        assert header["protocol"] == entry.protocol.to_dict(), entry.name
     done = subprocess.run([sys.executable, str(REPO / "scripts" / "protocol_fields.py"),
                            "--check"], capture_output=True, text=True, check=False)
     assert done.returncode == 0, done.stdout + done.stderr
