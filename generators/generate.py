@@ -13,7 +13,9 @@ the worker count or the order shards finish in. Complete shards are kept on a re
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import importlib.metadata
+import json
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -26,6 +28,7 @@ from nsrmp_bench.engine import Engine, TaskReport, open_engine
 from nsrmp_bench.episode import Episode, SeedInfo
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.generators.sampler import AttemptLog, first_valid, sample_symbolic
+from nsrmp_bench.private_parts import bind_secret, commitment_record
 from nsrmp_bench.split_specs import SplitSpec, load_split, resolve_split
 from nsrmp_bench.storage.manifest import Manifest
 from nsrmp_bench.storage.records import ShardRecord
@@ -99,11 +102,19 @@ def realise_config(
 def make_episode(
     spec: SplitSpec, part: str, index: int, world: Any, stats: AttemptLog | None = None
 ) -> Episode:
-    """Instance ``index`` of ``spec``'s ``part``, realised in ``world`` (a World)."""
-    return realise_config(
-        spec.config(part, index), spec.part(part).entropy, index,
+    """Instance ``index`` of ``spec``'s ``part``, realised in ``world`` (a World).
+
+    A private part's episode (its spec bound to the secret,
+    :func:`~nsrmp_bench.private_parts.bind_secret`) stores a sealed seed: no entropy."""
+    ps = spec.part(part)
+    episode = realise_config(
+        spec.config(part, index), ps.seed_entropy(spec.id), index,
         spec.episode_id(part, index), world, executor=spec.executor, stats=stats,
     )
+    if not ps.private:
+        return episode
+    symbolic = dataclasses.replace(episode.symbolic, seed=episode.symbolic.seed.seal())
+    return dataclasses.replace(episode, symbolic=symbolic)
 
 
 # -- worker side (one task per shard range, whichever engine runs it) --------------------
@@ -210,16 +221,23 @@ def generate_part(
     limit: int | None = None,
     on_progress: ProgressCallback | None = None,
     on_start: Callable[[int, int], None] | None = None,
+    secret: str | None = None,
 ) -> tuple[Manifest, AttemptLog]:
     """Generate (or resume) one part into ``out_dir``; returns its manifest and stats.
 
     The shards still missing go to ``engine`` (entered by the caller), by default the local
     one with ``workers`` processes; the manifest is written here once all are complete.
+    A private part needs its ``secret`` (:mod:`nsrmp_bench.private_parts`): it is never
+    written; the manifest holds the commitment to it.
     """
+    private = _private_record(spec, part, secret)
+    spec = bind_secret(spec, secret)
     count = spec.part(part).count if limit is None else min(limit, spec.part(part).count)
     out = Path(out_dir).resolve()
     out.mkdir(parents=True, exist_ok=True)
     (out / "manifest.json").unlink(missing_ok=True)
+    if private is not None:
+        _same_commitment(out, private)
     state = scan_output(out)
     todo = state.missing(0, count, shard_size)
     done = count - sum(b - a for a, b in todo)
@@ -239,9 +257,43 @@ def generate_part(
     manifest = write_manifest(
         out, split=f"{spec.id}/{part}", versions=versions(), index_range=(0, count),
         generator=spec.generator, verify=False,
-        spec=None if spec.shipped else spec.to_dict(),
+        spec=None if spec.shipped else spec.to_dict(), private=private,
     )
     return manifest, stats
+
+
+PRIVATE_STATE = "private.json"
+"""The commitment a private part's directory is being generated under (kept for resume)."""
+
+
+def _private_record(spec: SplitSpec, part: str, secret: str | None) -> dict[str, str] | None:
+    """The manifest's commitment for a private part (None for a public one); a private
+    part without its secret is an error before any work."""
+    ps = spec.part(part)
+    if not ps.private:
+        return None
+    if secret is None:
+        raise ps.missing_secret(spec.id)
+    return commitment_record(spec, part, secret)
+
+
+def _same_commitment(out: Path, private: dict[str, str]) -> None:
+    """Refuse to resume a private part's shards made with another secret."""
+    state = out / PRIVATE_STATE
+    if state.is_file():
+        before = json.loads(state.read_text("utf-8"))
+        if before != private:
+            msg = (f"{out} holds shards generated with another secret (commitment "
+                   f"{str(before.get('commitment'))[:16]}..., this secret gives "
+                   f"{private['commitment'][:16]}...); give the same secret to resume, or "
+                   "generate into an empty directory")
+            raise InvalidArgument(msg)
+    elif any(out.glob("shard-*")):
+        msg = (f"{out} holds shards but no {PRIVATE_STATE}: they were not made for this "
+               "private part; generate into an empty directory")
+        raise InvalidArgument(msg)
+    else:
+        state.write_text(json.dumps(private, sort_keys=True) + "\n", "utf-8")
 
 
 def generate_split(

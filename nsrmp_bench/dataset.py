@@ -14,6 +14,8 @@ Each item keeps what a model may read apart from the gold::
                  "rgb": uint8 (S, H, W, 3) the render after each step (with
                  ``step_images=True``, else None)}}
 
+An inputs-only part (``pack --inputs-only``) gives ``"targets": None``.
+
 A model reads ``inputs`` only (:func:`item_camera` and :func:`shared_camera` give the
 camera, typed); ``targets`` reach only its loss. Images stay ``uint8``/``float32`` tensors:
 normalise on the accelerator. Files are opened lazily in each worker process (the
@@ -87,6 +89,17 @@ class EpisodeDataset:
     def __getitem__(self, i: int) -> dict[str, Any]:
         arrays = ("poses", "boxes", "rgb") if self.step_images else ("poses", "boxes")
         inp, tg = self.collection.read_item(i, images=self.images, arrays=arrays)
+        inputs = {
+            "instruction": inp["instruction"],
+            "rgb": _tensor(inp["rgb"]),
+            "depth": _tensor(inp["depth"]),
+            "boxes": _tensor(inp["boxes"]),
+            "camera": inp["camera"],
+        }
+        if tg is None:  # an inputs-only part: no gold to read
+            bare: dict[str, Any] = {"id": inp["id"], "index": self.collection.instance_index(i),
+                                    "inputs": inputs, "targets": None}
+            return self.transform(bare) if self.transform is not None else bare
         sym = tg["symbolic"]
         objects = sym["scene"]["objects"]
         n = len(objects)
@@ -99,13 +112,7 @@ class EpisodeDataset:
         item: dict[str, Any] = {
             "id": inp["id"],
             "index": int(sym["seed"]["index"]),
-            "inputs": {
-                "instruction": inp["instruction"],
-                "rgb": _tensor(inp["rgb"]),
-                "depth": _tensor(inp["depth"]),
-                "boxes": _tensor(inp["boxes"]),
-                "camera": inp["camera"],
-            },
+            "inputs": inputs,
             "targets": {
                 "boxes": _tensor(boxes),
                 "final_boxes": _tensor(boxes[-1] if boxes is not None else None),

@@ -39,23 +39,43 @@ SCHEMA_VERSION = "1.0.0"
 
 @dataclass(frozen=True)
 class SeedInfo:
-    """An instance's randomness: ``SeedSequence(entropy, spawn_key=(index, attempt))``."""
+    """An instance's randomness: ``SeedSequence(entropy, spawn_key=(index, attempt))``.
+
+    A *sealed* seed belongs to a private part (:mod:`nsrmp_bench.private_parts`): its
+    entropy is derived from a secret and is never stored, so it is written as ``null``
+    with ``"sealed": true`` and read back as entropy 0.
+    """
 
     entropy: int
     index: int
     attempt: int = 0
+    sealed: bool = False
 
-    def to_dict(self) -> dict[str, int]:
+    def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able form."""
+        if self.sealed:
+            return {"entropy": None, "index": self.index, "attempt": self.attempt,
+                    "sealed": True}
         return {"entropy": self.entropy, "index": self.index, "attempt": self.attempt}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> SeedInfo:
         """Inverse of :meth:`to_dict`."""
+        if data.get("sealed"):
+            return cls(0, int(data["index"]), int(data.get("attempt", 0)), sealed=True)
         return cls(int(data["entropy"]), int(data["index"]), int(data.get("attempt", 0)))
+
+    def seal(self) -> SeedInfo:
+        """The same seed with its entropy withheld (what a private part stores)."""
+        return SeedInfo(0, self.index, self.attempt, sealed=True)
 
     def generator(self) -> np.random.Generator:
         """The numpy Generator this seed denotes."""
+        if self.sealed:
+            msg = (f"seed of instance {self.index} is sealed (a private part's entropy is "
+                   "never stored); regenerate the part with its secret "
+                   "(`nsrmp-bench generate --secret-file`) instead of from the stored seed")
+            raise InvalidArgument(msg)
         seq = np.random.SeedSequence(self.entropy, spawn_key=(self.index, self.attempt))
         return np.random.default_rng(seq)
 

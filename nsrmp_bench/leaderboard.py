@@ -1,7 +1,10 @@
 """Static, re-computable leaderboards.
 
 A row is a data file ``leaderboards/entries/<name>.json`` naming a model, the split it was
-run on and its predictions file (committed next to it, under ``leaderboards/predictions/``).
+run on and its predictions file (committed next to it, under ``leaderboards/predictions/``),
+and stating its protocol (``"protocol"``: supervision, boxes, training parts, seeds, scorer,
+the root hash of the part's manifest; :mod:`nsrmp_bench.scoring.protocol_fields`), which
+:func:`build` checks against the data and the scorer.
 :func:`build` scores every entry with the public scorer (:func:`nsrmp_bench.score`, exactly
 as a submitter would) against the split's data and writes one board per split as Markdown
 and JSON. Anyone with the data can rebuild the boards and get the same numbers.
@@ -13,15 +16,17 @@ import json
 import math
 import os
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from nsrmp_bench.canonical import canonical_json
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.results.ranks import RANK_RULE, shared_ranks
+from nsrmp_bench.scoring.protocol_fields import ProtocolFields, manifest_mismatch, part_root_hash
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
+from nsrmp_bench.scoring.version import SCORER_ID
 from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.split_root import find_part
 
@@ -50,6 +55,8 @@ class Entry:
     model_card: Path | None = None
     card: dict[str, Any] = field(default_factory=dict)
     """Facts the entry states for its model card (see :mod:`nsrmp_bench.results.model_cards`)."""
+    protocol: ProtocolFields | None = None
+    """The protocol the entry states (None for an entry that states none)."""
 
     @classmethod
     def read(cls, path: Path) -> Entry:
@@ -74,6 +81,8 @@ class Entry:
                 "relative to the entry file)"
             )
             raise InvalidArgument(msg) from exc
+        if "protocol" in data:  # its own messages name the field and the fix
+            entry = replace(entry, protocol=ProtocolFields.from_dict(data["protocol"], str(path)))
         if "/" not in entry.split:
             msg = f"{path}: split {entry.split!r} must name a part, e.g. 'paper-v2/test'"
             raise InvalidArgument(msg)
@@ -146,6 +155,7 @@ def build(
                 f"nsrmp-bench generate --split {split_id} --out {Path(data_root) / split_id}"
             )
             raise InvalidArgument(msg)
+        _check_protocol(entry, data)
         result = score(entry.predictions, data, breakdown=breakdown)
         if on_result is not None:
             on_result(entry, result)
@@ -168,6 +178,21 @@ def build(
         atomic_write_text(out / f"{stem}.json",
                           canonical_json({"split": split, "rows": _nan_to_none(rows)}) + "\n")
     return boards
+
+
+def _check_protocol(entry: Entry, data: Path) -> None:
+    """An entry's stated protocol must name the part it is scored on and this scorer."""
+    if entry.protocol is None:
+        return
+    root = part_root_hash(data)
+    where = f"leaderboard entry {entry.name}"
+    problem = manifest_mismatch(entry.protocol, root, entry.split, where) if root else None
+    if problem is not None:
+        raise InvalidArgument(problem)
+    if entry.protocol.scorer != SCORER_ID:
+        msg = (f"{where}: its protocol's scorer is {entry.protocol.scorer!r}, but the boards "
+               f"are scored with {SCORER_ID!r}; state the scorer it is scored with")
+        raise InvalidArgument(msg)
 
 
 def _nan_to_none(value: Any) -> Any:

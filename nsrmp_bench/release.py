@@ -23,6 +23,7 @@ from nsrmp_bench.errors import DownloadError, InvalidArgument
 from nsrmp_bench.official_manifests import official_manifest, official_manifest_text
 from nsrmp_bench.split_specs import list_splits, load_split
 from nsrmp_bench.storage.atomic import atomic_write_text
+from nsrmp_bench.storage.inputs_only import strip_part
 from nsrmp_bench.storage.manifest import read_manifest
 from nsrmp_bench.storage.split_root import split_root_parts
 
@@ -42,10 +43,15 @@ class RegistryEntry:
     bytes: int
 
 
-def pack(data_dir: str | os.PathLike[str], out: str | os.PathLike[str]) -> list[RegistryEntry]:
+def pack(data_dir: str | os.PathLike[str], out: str | os.PathLike[str], *,
+         inputs_only: bool = False) -> list[RegistryEntry]:
     """Copy a generated split (``data_dir/<part>/``) into ``out/<split>/`` with its registry
     and its Croissant metadata (``croissant.json``, see :mod:`nsrmp_bench.export.croissant`;
-    not in the registry, which lists only what ``download`` fetches)."""
+    not in the registry, which lists only what ``download`` fetches).
+
+    With ``inputs_only`` each part is written without its gold
+    (:mod:`nsrmp_bench.storage.inputs_only`: what a scoring server's participants get) and
+    no Croissant metadata, whose tables describe the gold."""
     src = Path(data_dir)
     parts = [src / p for p in split_root_parts(src)] or [src]
     if not (parts[0] / "manifest.json").is_file():
@@ -62,8 +68,11 @@ def pack(data_dir: str | os.PathLike[str], out: str | os.PathLike[str]) -> list[
         split_id = sid
         dest = Path(out) / sid / part
         dest.mkdir(parents=True, exist_ok=True)
+        if inputs_only:
+            strip_part(part_dir, dest)
         for name in [s.file for s in manifest.shards] + ["manifest.json"]:
-            shutil.copyfile(part_dir / name, dest / name)
+            if not inputs_only:
+                shutil.copyfile(part_dir / name, dest / name)
             size = (dest / name).stat().st_size
             entries.append(RegistryEntry(f"{part}/{name}", sha256_file(dest / name), size))
     if split_id is None:
@@ -73,7 +82,8 @@ def pack(data_dir: str | os.PathLike[str], out: str | os.PathLike[str]) -> list[
     from nsrmp_bench.export.croissant import write_croissant
 
     packed_parts = sorted({e.path.split("/", 1)[0] for e in entries})
-    write_croissant(Path(out) / split_id, split_id, packed_parts)
+    if not inputs_only:
+        write_croissant(Path(out) / split_id, split_id, packed_parts)
     atomic_write_text(
         Path(out) / split_id / REGISTRY_NAME,
         f"# nsrmp-bench release registry for {split_id}: <part>/<file> <sha256> <bytes>\n"

@@ -6,6 +6,10 @@ are the strata's grids in order, and instance ``i`` takes cell ``i mod len(cells
 every category is balanced to within one instance. Instance ``i`` of a part is then a pure
 function of (spec, part, i).
 
+A part's entropy may be the word ``"secret"`` (:data:`PRIVATE_ENTROPY`): a *private* part,
+whose entropy is derived from a secret given at generation and never written anywhere
+(:mod:`nsrmp_bench.private_parts`); its manifest holds a commitment instead.
+
 A spec may also come from a file of the same form (:func:`load_split_file`, or
 :func:`resolve_split` for "an id or a path"): a custom split, e.g. 20,000 training episodes
 or 3-8 objects. It is *unofficial*: validated like the shipped specs, written into its
@@ -39,6 +43,7 @@ from nsrmp_bench.vocabulary import (
 
 __all__ = [
     "OFFICIAL_SPLITS",
+    "PRIVATE_ENTROPY",
     "SPLIT_ID_RE",
     "PartSpec",
     "SplitSpec",
@@ -50,6 +55,8 @@ __all__ = [
     "withdrawal",
 ]
 
+PRIVATE_ENTROPY = "secret"
+"""A part's ``entropy`` value that makes it private: the entropy comes from a secret."""
 SPLIT_ID_RE = re.compile(r"^(?P<name>[a-z][a-z0-9]*)-v(?P<version>[0-9]+)$")
 OFFICIAL_SPLITS = (
     "smoke-v2", "paper-v2", "objects-v2", "steps-v2", "attributes-v2", "language-v2",
@@ -113,8 +120,26 @@ class PartSpec:
 
     name: str
     count: int
-    entropy: int
+    entropy: int | None = field(repr=False)
+    """The part's entropy; None for a private part whose secret has not been given (a
+    private part's derived entropy is kept out of ``repr``, so no log shows it)."""
     strata: tuple[Stratum, ...]
+    private: bool = False
+    """Whether the entropy comes from a secret (the spec says ``"entropy": "secret"``)."""
+
+    def missing_secret(self, split_id: str) -> InvalidArgument:
+        """The error of using this private part without its secret: how to give it."""
+        return InvalidArgument(
+            f"part {self.name!r} of split {split_id} is private (its entropy is "
+            f"{PRIVATE_ENTROPY!r}): give its secret with --secret-file PATH or the "
+            "environment variable NSRMP_BENCH_SECRET")
+
+    def seed_entropy(self, split_id: str) -> int:
+        """The entropy instances are drawn from; a private part without its secret is an
+        error saying how to give it."""
+        if self.entropy is None:
+            raise self.missing_secret(split_id)
+        return self.entropy
 
     def cells(self) -> list[tuple[Stratum, tuple[int, int, str, str]]]:
         """Every (stratum, cell) in order."""
@@ -286,6 +311,14 @@ def _positive(value: Any, what: str, where: str) -> int:
     return value
 
 
+def _entropy(value: Any, where: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        msg = (f"{where}: entropy is {value!r}; expected a non-negative integer, or "
+               f"{PRIVATE_ENTROPY!r} for a private part (its secret given at generation)")
+        raise InvalidArgument(msg)
+    return value
+
+
 MIN_IMAGE, MAX_IMAGE = 32, 4096
 """The image sizes a spec may ask for, in pixels per side."""
 
@@ -340,7 +373,11 @@ def _parse(data: Mapping[str, Any], where: str, *, source: str | None) -> SplitS
         if count == 0:
             msg = f"{pw}: count is 0; a part needs at least one instance"
             raise InvalidArgument(msg)
-        parts[name] = PartSpec(name, count, _positive(part["entropy"], "entropy", pw), strata)
+        if part["entropy"] == PRIVATE_ENTROPY:
+            parts[name] = PartSpec(name, count, None, strata, private=True)
+        else:
+            entropy = _entropy(part["entropy"], pw)
+            parts[name] = PartSpec(name, count, entropy, strata)
     try:
         image = (int(data["image"][0]), int(data["image"][1]))
         held_out_pairs = tuple((str(s), str(c)) for s, c in data.get("held_out_pairs", ()))

@@ -26,7 +26,8 @@ from nsrmp_bench.engine import Engine, InlineEngine, TaskReport, in_task_order
 from nsrmp_bench.errors import DataIntegrityError, NSRMPError
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.plurals import counted
-from nsrmp_bench.split_specs import SplitSpec, withdrawal
+from nsrmp_bench.private_parts import commitment_problem
+from nsrmp_bench.split_specs import SplitSpec, load_split, withdrawal
 from nsrmp_bench.storage.hashing import episode_hash, root_hash
 from nsrmp_bench.storage.manifest import Manifest, read_manifest
 from nsrmp_bench.storage.reader import read_episode
@@ -225,9 +226,12 @@ def _spec_problem(manifest: Manifest, spec: SplitSpec) -> str | None:
 
 def verify(
     data_dir: str | os.PathLike[str], *, deep: bool = True, spec: SplitSpec | None = None,
-    engine: Engine | None = None,
+    engine: Engine | None = None, secret: str | None = None,
 ) -> VerifyReport:
     """Check ``data_dir`` (a part directory with ``manifest.json``).
+
+    A private part's manifest holds a commitment to its secret; with ``secret`` (the
+    revealed one) the commitment is opened, and a wrong secret is a problem.
 
     Data of an unofficial split (generated from a spec file) is checked against its own
     manifest only; with ``spec`` the manifest's spec must also be that one. The shards are
@@ -240,6 +244,12 @@ def verify(
     wrong_spec = _spec_problem(manifest, spec) if spec is not None else None
     if wrong_spec is not None:
         report.problems.append(wrong_spec)
+    if manifest.inputs_only:  # its episode hashes cover gold it does not hold
+        deep = False
+        report.notes.append(
+            "inputs-only part (packed without its gold): its shards' sha256 are checked and "
+            "its episode hashes and root hash compared with the full part's; verify the "
+            "full part to rehash the episodes")
     recomputed: dict[int, str] = {}
     summaries: dict[int, dict[str, Any] | None] = {}
     engine = InlineEngine() if engine is None else engine
@@ -254,6 +264,7 @@ def verify(
     report.root_hash = root_hash(recomputed.items())
     if report.root_hash != manifest.root_hash and not report.problems:
         report.problems.append("root hash differs from manifest.json although episodes match")
+    _check_commitment(report, manifest, secret)
     if manifest.perturbation is not None:
         pert = manifest.perturbation
         report.notes.append(
@@ -274,7 +285,7 @@ def verify(
     report.committed_root_hash = str(committed["root_hash"])
     report.identical_files = identical_files(manifest, committed)
     if report.committed_root_hash == report.root_hash:
-        if not report.problems:
+        if not report.problems and not manifest.inputs_only:
             report.notes.append(_files_note(report.identical_files, len(manifest.shards),
                                             len(committed.get("shards", []))))
         return report
@@ -317,6 +328,30 @@ def verify(
             f"(indices {cmp.missing[0]}..{cmp.missing[-1]}): {fix}"
         )
     return report
+
+
+def _check_commitment(report: VerifyReport, manifest: Manifest, secret: str | None) -> None:
+    """A private part's commitment, opened with the revealed ``secret`` when given."""
+    split_id, _, part = manifest.split.partition("/")
+    if manifest.private is None:
+        if secret is not None:  # e.g. $NSRMP_BENCH_SECRET set for other parts: harmless
+            report.notes.append(
+                f"a secret was given, but {manifest.split} is not a private part (its "
+                "manifest holds no commitment): the secret was not used")
+        return
+    if secret is None:
+        report.notes.append(
+            f"private part: its entropy is a secret, committed to by "
+            f"{manifest.private.get('commitment', '')[:16]}...; once the secret is revealed, "
+            "`nsrmp-bench verify DATA --secret-file SECRET` opens the commitment")
+        return
+    spec = manifest.spec if manifest.spec is not None else load_split(split_id).to_dict()
+    problem = commitment_problem(manifest.private, spec, part, secret)
+    if problem is not None:
+        report.problems.append(problem)
+    else:
+        report.notes.append("the revealed secret opens the manifest's commitment: this part "
+                            "was generated from it (regenerate with it to compare the data)")
 
 
 def require_ok(report: VerifyReport) -> None:

@@ -92,6 +92,7 @@ def predict_part(model_name: str, data: Path, out: Path,
     """
     from nsrmp_bench.dataset import EpisodeDataset, shared_camera
     from nsrmp_bench.reference_model.predictions import write_model_predictions
+    from nsrmp_bench.reference_model.protocols import shipped_protocol
     from nsrmp_bench.reference_model.registry import load_predictor
 
     if not data.exists():
@@ -118,6 +119,11 @@ def predict_part(model_name: str, data: Path, out: Path,
         model_id = f"{model_id}+{detector}"
         extra.update({"boxes": detector, "detections_file": boxes.name})
         predictions = _on_detections(model, items, detected)
+    root = ds.collection.manifest.root_hash if ds.collection.manifest is not None else None
+    if checkpoint is None and root is not None:  # the shipped checkpoint: its facts are known
+        extra["protocol"] = shipped_protocol(
+            str(model.model_id), root, detector=str(extra["boxes"]) if boxes else None,
+        ).to_dict()
     written = write_model_predictions(out, ds.collection.split, model_id, predictions, extra)
     return model_id, written, len(items)
 

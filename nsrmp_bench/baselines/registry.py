@@ -19,7 +19,9 @@ from nsrmp_bench.baselines.oracle import oracle_prediction
 from nsrmp_bench.baselines.random_steps import random_prediction
 from nsrmp_bench.episode import Episode, SymbolicEpisode
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.scoring.protocol_fields import GOLD_BOXES, ProtocolFields
 from nsrmp_bench.scoring.submission import Prediction, SubmissionHeader, write_submission
+from nsrmp_bench.scoring.version import SCORER_ID
 from nsrmp_bench.versioned_ids import resolve_id
 
 __all__ = ["BASELINES", "Baseline", "get_baseline", "predict", "run_baseline"]
@@ -36,6 +38,18 @@ class Baseline:
     predict: PredictFn
     reads: str
     """What it reads of an episode (its model card's "inputs"); no baseline is trained."""
+    supervision: str = "none"
+    """Its protocol's ``supervision``: the gold it reads, as no baseline learns."""
+    seeded: bool = False
+    """Whether its predictions depend on the seed (then the protocol's ``seeds``)."""
+
+    def protocol(self, seed: int, manifest_root_hash: str) -> ProtocolFields:
+        """Its protocol fields on the part with root hash ``manifest_root_hash``."""
+        return ProtocolFields(
+            supervision=self.supervision, boxes=GOLD_BOXES, training_parts=(),
+            seeds=(seed,) if self.seeded else (), scorer=SCORER_ID,
+            manifest_root_hash=manifest_root_hash,
+        )
 
 
 BASELINES: dict[str, Baseline] = {
@@ -43,11 +57,13 @@ BASELINES: dict[str, Baseline] = {
     for b in (
         Baseline("oracle-v1", "gold program executed symbolically (upper bound)",
                  oracle_prediction, "the gold grounded program, the initial poses and the "
-                 "camera (gold targets: an upper bound, not a model)"),
+                 "camera (gold targets: an upper bound, not a model)",
+                 supervision="none (not learned); reads the gold program: an upper bound"),
         Baseline("noop-v1", "nothing moves: final boxes = initial boxes (floor)",
-                 noop_prediction, "the initial boxes"),
+                 noop_prediction, "the initial boxes", supervision="none (not learned)"),
         Baseline("random-v1", "a random legal step per gold step", random_prediction,
-                 "the initial poses, the camera and the number of gold steps"),
+                 "the initial poses, the camera and the number of gold steps",
+                 supervision="none (not learned); reads the number of gold steps", seeded=True),
     )
 }
 """Baseline id (``name-vN``) -> baseline."""
@@ -79,8 +95,14 @@ def run_baseline(
     *,
     split: str,
     seed: int = 0,
+    manifest_root_hash: str | None = None,
 ) -> Path:
-    """Write baseline ``name``'s predictions for ``episodes`` (split ``split``) to ``out``."""
+    """Write baseline ``name``'s predictions for ``episodes`` (split ``split``) to ``out``;
+    with ``manifest_root_hash`` (of the part the episodes are) the header states the
+    protocol."""
     baseline = get_baseline(name)
-    header = SubmissionHeader(split=split, model=baseline.id, extra={"seed": seed})
+    extra: dict[str, object] = {"seed": seed}
+    if manifest_root_hash is not None:
+        extra["protocol"] = baseline.protocol(seed, manifest_root_hash).to_dict()
+    header = SubmissionHeader(split=split, model=baseline.id, extra=extra)
     return write_submission(out, header, predict(baseline, episodes, seed))

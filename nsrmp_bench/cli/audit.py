@@ -41,6 +41,8 @@ def _from_specs(split_ids: list[str]) -> Iterator[tuple[str, str, SymbolicEpisod
     for sid in split_ids:
         spec = load_split(sid)
         for part, ps in spec.parts.items():
+            if ps.entropy is None:  # a private part: only its data can be audited
+                continue
             for i in range(ps.count):
                 ep = sampler.sample_episode(spec.config(part, i), ps.entropy, i,
                                             spec.episode_id(part, i))

@@ -7,7 +7,8 @@ Example::
 
 Baselines: ``oracle`` (gold program executed symbolically: the upper bound), ``noop``
 (nothing moves: the floor) and ``random`` (a random legal step per gold step, from
-``--seed``). The file is an ordinary predictions file (.jsonl, or .parquet).
+``--seed``). The file is an ordinary predictions file (.jsonl, or .parquet); made on a
+data directory, its header states the protocol (no training, the part's root hash).
 """
 
 from __future__ import annotations
@@ -19,7 +20,9 @@ from nsrmp_bench.baselines.registry import BASELINES, get_baseline, run_baseline
 from nsrmp_bench.cli.numbers import non_negative_int
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.scoring.gold import load_episodes
+from nsrmp_bench.scoring.protocol_fields import part_root_hash
 from nsrmp_bench.storage.atomic import output_file
+from nsrmp_bench.storage.split_root import part_of_split
 
 __all__ = ["add_arguments", "run"]
 
@@ -46,6 +49,8 @@ def run(args: argparse.Namespace) -> int:
     if not split:
         msg = f"{args.data} records no split id; pass --split ID for the file's header"
         raise InvalidArgument(msg)
-    out = run_baseline(baseline.id, episodes, args.out, split=split, seed=args.seed)
+    root = part_root_hash(args.data, part_of_split(split)) if args.data.is_dir() else None
+    out = run_baseline(baseline.id, episodes, args.out, split=split, seed=args.seed,
+                       manifest_root_hash=root)
     print(f"{baseline.id}: wrote {out}")
     return 0

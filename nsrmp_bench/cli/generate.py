@@ -15,6 +15,9 @@ A custom split (``--spec PATH``, or ``--split PATH``) is a spec file of the ship
 form (copy ``splits/paper-v2.json``, change the counts, objects, entropy and the id); it
 is unofficial: its manifest holds the spec, and there is no committed manifest to compare.
 Custom specs run on every engine: each shard task carries the spec itself.
+A private part (``"entropy": "secret"`` in its spec) needs its secret: ``--secret-file
+PATH`` or the environment variable ``NSRMP_BENCH_SECRET``; it is never written, and the
+manifest holds a commitment to it (``docs/challenge.md``).
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from nsrmp_bench.cli.numbers import positive_int
 from nsrmp_bench.cli.progress import episode_progress
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.plurals import counted
+from nsrmp_bench.private_parts import read_secret
 from nsrmp_bench.split_specs import load_split_file, resolve_split
 from nsrmp_bench.storage.atomic import output_dir
 from nsrmp_bench.verify import compare_with_committed
@@ -52,6 +56,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="instances per shard (default 100)")
     parser.add_argument("--limit", type=positive_int, default=None,
                         help="only the first N instances of each part (not the official split)")
+    parser.add_argument("--secret-file", type=Path, default=None, metavar="PATH",
+                        help="a private part's secret (default: $NSRMP_BENCH_SECRET); never "
+                        "written, the manifest holds a commitment to it")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -62,19 +69,22 @@ def run(args: argparse.Namespace) -> int:
     # the spec first: a bad value is named whatever is installed
     spec = load_split_file(args.spec) if args.spec is not None else resolve_split(args.split)
     parts = args.part or list(spec.parts)
+    secret = read_secret(args.secret_file)
     for part in parts:
-        spec.part(part)  # unknown part: a clear error before any work
+        ps = spec.part(part)  # unknown part: a clear error before any work
+        if ps.private and secret is None:
+            raise ps.missing_secret(spec.id)
     require("pybullet")  # before any work, also of pool workers that would import it
     from nsrmp_bench.generators import generate as gen
 
     console = Console(stderr=True)
     with engine_from_args(args) as engine:
-        return max((_generate(gen, spec, part, engine, args, console) for part in parts),
-                   default=0)
+        return max((_generate(gen, spec, part, engine, args, console, secret)
+                    for part in parts), default=0)
 
 
 def _generate(gen: Any, spec: Any, part: str, engine: Any, args: argparse.Namespace,
-              console: Console) -> int:
+              console: Console, secret: str | None) -> int:
     """One part: generate, print the summary, compare with the committed manifest."""
     out = args.out / part
     t0 = time.perf_counter()
@@ -87,7 +97,7 @@ def _generate(gen: Any, spec: Any, part: str, engine: Any, args: argparse.Namesp
         manifest, stats = gen.generate_part(
             spec, part, out, engine=engine, shard_size=args.shard_size,
             limit=args.limit, on_start=on_start,
-            on_progress=lambda n: progress.advance(task, n),
+            on_progress=lambda n: progress.advance(task, n), secret=secret,
         )
     wall = time.perf_counter() - t0
     rate = stats.episodes / wall if stats.episodes else 0.0
@@ -98,6 +108,9 @@ def _generate(gen: Any, spec: Any, part: str, engine: Any, args: argparse.Namesp
         f"{rejected} attempts rejected{_reasons(stats)})"
     )
     console.print(f"  root hash {manifest.root_hash}")
+    if manifest.private is not None:
+        console.print(f"  private part: commitment {manifest.private['commitment']} (the "
+                      "secret is not written anywhere; keep it to reveal later)")
     if not spec.shipped:
         console.print(f"  unofficial split (spec {spec.source}, written into the "
                       "manifest): no committed manifest to compare against")

@@ -174,7 +174,8 @@ def gold_scenes(data: str | Path, split: str | None = None) -> list[GoldScene]:
         raise InvalidArgument(msg)
     out = []
     for i in range(len(col)):
-        inp, tg = col.read_item(i, images=False, arrays=())
+        inp = col.read_inputs(i, images=False)
+        tg = col.read_targets(i, arrays=())
         if inp["boxes"] is None:
             msg = f"episode {inp['id']!r} of {data} has no rendering, so no boxes to detect"
             raise InvalidArgument(msg)

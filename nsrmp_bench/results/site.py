@@ -18,7 +18,9 @@ be published alone as it is.
   figures that involve the split;
 * ``cards/<entry>.html``: the model card of an entry: training data, training time,
   parameters, supervision, the inputs it reads (:mod:`nsrmp_bench.results.model_cards`),
-  or, plainly, that its card states none of them.
+  or, plainly, that its card states none of them; and the protocol fields the entry states
+  (supervision, boxes, training parts, seeds, scorer, manifest root hash), which the
+  board's protocol cell also shows on hover.
 
 Ranks (:func:`shared_ranks`, the rule is :data:`RANK_RULE`, printed on every board): the
 reference rows are not ranked; the other entries are ranked by IoU-M, and one whose 95%
@@ -259,8 +261,8 @@ def _board_page(split: str, rows: list[dict[str, Any]], site: _Site) -> str:
                  f'<td class="text model" title="{_e(row["description"])}">'
                  f'{site.swatch(row["model"])}{_model_name(row["model"])}</td>',
                  f'<td class="text">{_e(row["kind"])}</td>',
-                 f'<td class="text">{_e(protocol.label if protocol else "not scored here")}'
-                 "</td>"]
+                 f'<td class="text"{_stated_title(entry)}>'
+                 f'{_e(protocol.label if protocol else "not scored here")}</td>']
         cells += [_metric_cell(row["metrics"].get(m)) for m in COLUMNS]
         cells.append(f'<td data-value="{int(row["n"])}">{int(row["n"])}</td>')
         cells.append(f'<td class="text files"><a href="{_link(predictions, site.root)}" '
@@ -275,6 +277,40 @@ def _board_page(split: str, rows: list[dict[str, Any]], site: _Site) -> str:
     if figures:
         body += ["<h2>Figures</h2>", *figures]
     return _page(f"nsrmp-bench {'test board' if test else 'leaderboard'}: {split}", body)
+
+
+def _stated(entry: Entry) -> list[tuple[str, str]]:
+    """The protocol fields the entry states, as (label, text) pairs; [] when none."""
+    if entry.protocol is None:
+        return []
+    p = entry.protocol
+    return [("supervision", p.supervision), ("boxes", p.boxes),
+            ("training parts", ", ".join(p.training_parts) or "none"),
+            ("seeds", ", ".join(map(str, p.seeds)) or "none"), ("scorer", p.scorer),
+            ("manifest root hash", p.manifest_root_hash)]
+
+
+def _stated_title(entry: Entry) -> str:
+    """A ``title`` attribute listing the stated protocol (the board's hover text)."""
+    stated = _stated(entry)
+    if not stated:
+        return ' title="this entry states no protocol fields"'
+    text = "; ".join(f"{k}: {v[:16] + '...' if k.startswith('manifest') else v}"
+                     for k, v in stated)
+    return f' title="{_e(text)}"'
+
+
+def _protocol_section(entry: Entry) -> list[str]:
+    """The card page's list of the protocol fields the entry states."""
+    stated = _stated(entry)
+    if not stated:
+        return ["<h2>Protocol</h2>", '<p class="warning">This entry states no protocol '
+                "fields (supervision, boxes, training parts, seeds, scorer, manifest).</p>"]
+    rows = [f"<dt>{_e(k)}</dt><dd>{_e(v)}</dd>" for k, v in stated]
+    return ["<h2>Protocol</h2>", '<dl class="card protocol">', *rows, "</dl>",
+            '<p class="note">Stated in the entry file and checked when the boards are built: '
+            "the manifest root hash is the one of the part the predictions were made on, "
+            "the scorer the one that scores them.</p>"]
 
 
 def _card_page(entry: Entry, site: _Site) -> str:
@@ -311,6 +347,7 @@ def _card_page(entry: Entry, site: _Site) -> str:
         if unstated:
             note += " Not stated: " + ", ".join(unstated) + "."
         body += ['<dl class="card">', *facts, "</dl>", f'<p class="note">{_e(note)}</p>']
+    body += _protocol_section(entry)
     body += ["<ul>", *links, "</ul>"]
     return _page(f"model card: {entry.name}", body, depth=1)
 

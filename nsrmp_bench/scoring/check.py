@@ -6,19 +6,31 @@ an official split the committed manifest (shipped with the package) holds every 
 id and object count, so ids and box counts are checked and missing instances counted too.
 With the split's data, also step counts and that boxes lie in the image. A file that
 predicts no instance at all is refused (it would score zero).
+
+The header's ``"protocol"`` (:mod:`nsrmp_bench.scoring.protocol_fields`) is checked field by
+field, and its manifest root hash against the part's (the data's manifest, else the
+committed one): a file made on another manifest is refused. A file without it is valid
+with a warning (the leaderboard requires it).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from nsrmp_bench.errors import NSRMPError, SubmissionError
+from nsrmp_bench.errors import InvalidArgument, NSRMPError, SubmissionError
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.scoring.align import align, split_matches
 from nsrmp_bench.scoring.gold import load_gold
+from nsrmp_bench.scoring.protocol_fields import (
+    PROTOCOL_KEYS,
+    ProtocolFields,
+    manifest_mismatch,
+    part_root_hash,
+)
 from nsrmp_bench.scoring.reader import read_submission_pending
 from nsrmp_bench.scoring.scorer import Data
 from nsrmp_bench.scoring.submission import Submission, SubmissionHeader
@@ -40,9 +52,15 @@ class CheckReport:
     counts: dict[str, int] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     against_manifest: str = ""
+    protocol: str = ""
+    """What the protocol check found (one sentence), or a warning that there is none."""
 
     def summary(self) -> str:
-        """One paragraph for people."""
+        """One paragraph for people, and the protocol check's line."""
+        text = self._counts_summary()
+        return f"{text}\n{self.protocol}" if self.protocol else text
+
+    def _counts_summary(self) -> str:
         head = (
             f"{self.source}: valid predictions file for split {self.header.split!r} "
             f"({self.header.scorer}, format {self.header.format_version}), {self.lines} "
@@ -94,19 +112,65 @@ def check_submission(
         msg = (f"{sub.source}: holds a header but no prediction; every instance would score "
                "zero: write one line per instance after the header")
         raise SubmissionError(msg)
+    protocol = _check_protocol(sub, data)
     if data is None:
         known = _committed_instances(sub.header.split)
         if known is None:
             pending.raise_if_any()
-            return CheckReport(sub.source, sub.header, len(sub), False)
+            return CheckReport(sub.source, sub.header, len(sub), False, protocol=protocol)
         name, objects = known
         counts = _check_with_manifest(sub, name, objects, unknown_ids, pending)
         pending.raise_if_any()
         return CheckReport(sub.source, sub.header, len(sub), False, counts,
-                           against_manifest=name)
+                           against_manifest=name, protocol=protocol)
     gold = load_gold(data, split=split, part=part_of_split(sub.header.split))
     table = align(sub, gold, unknown_ids=unknown_ids, pending=pending)
-    return CheckReport(sub.source, sub.header, len(sub), True, table.counts, table.warnings)
+    return CheckReport(sub.source, sub.header, len(sub), True, table.counts, table.warnings,
+                       protocol=protocol)
+
+
+def _part_root_hash(split: str, data: Data | None) -> str | None:
+    """The root hash of the part ``split`` names: of the data's manifest when given as a
+    folder, else of the committed manifest of an official split; None when unknown."""
+    if isinstance(data, str | Path):
+        return part_root_hash(data, part_of_split(split))
+    if data is not None:
+        return None
+    split_id, _, part = split.partition("/")
+    if not part:
+        return None
+    try:
+        committed = official_manifest(split_id, part)
+    except NSRMPError:
+        return None
+    return None if committed is None else str(committed["root_hash"])
+
+
+def _check_protocol(sub: Submission, data: Data | None) -> str:
+    """Check the header's ``protocol``; returns the line the summary prints."""
+    raw: Any = sub.header.extra.get("protocol")
+    if raw is None:
+        return ("warning: the header states no \"protocol\" (supervision, boxes, training "
+                "parts, seeds, scorer, manifest root hash); the leaderboard requires it: "
+                "see docs/challenge.md")
+    try:
+        fields = ProtocolFields.from_dict(raw, f"{sub.source} header")
+    except InvalidArgument as exc:
+        raise SubmissionError(str(exc)) from exc
+    if fields.scorer != sub.header.scorer:
+        msg = (f"{sub.source}: the protocol's scorer is {fields.scorer!r} but the header's is "
+               f"{sub.header.scorer!r}; state the same scorer in both")
+        raise SubmissionError(msg)
+    root = _part_root_hash(sub.header.split, data)
+    if root is None:
+        return (f"protocol: {len(PROTOCOL_KEYS)} fields valid; the manifest root hash "
+                f"({fields.manifest_root_hash[:16]}...) was not compared: pass --data with "
+                "the part's folder")
+    problem = manifest_mismatch(fields, root, sub.header.split, sub.source)
+    if problem is not None:
+        raise SubmissionError(problem)
+    return (f"protocol: {len(PROTOCOL_KEYS)} fields valid, made on the manifest of "
+            f"{sub.header.split} (root hash {root[:16]}...)")
 
 
 def _committed_instances(split: str) -> tuple[str, dict[str, int]] | None:

@@ -15,6 +15,9 @@ Layout (keys sorted; one episode row per line, so diffs stay readable)::
                    "relation_needed", "phrasing", "template"[, "tolerant"]}, ...]
      ["comparison": {...}]  only with robot episodes: how they are compared
      ["official": false, "spec": {...}]  only for a split generated from a spec file
+     ["private": {"scheme", "commitment"}]  only for a private part (its entropy a secret)
+     ["inputs_only": true]  only for a part packed without its gold (rows keep index, id,
+                            hash, objects; counts only episodes, shards, objects)
     }
 
 Robot episodes are not bit-stable across CPUs: their rows carry a ``tolerant`` summary and
@@ -52,10 +55,10 @@ def _key(value: Any) -> str:
     return value if isinstance(value, str) else json.dumps(value)
 
 
-def _counts(records: Sequence[ShardRecord]) -> dict[str, Any]:
+def _counts(records: Sequence[ShardRecord], *, inputs_only: bool = False) -> dict[str, Any]:
     eps = [e for r in records for e in r.episodes]
     out: dict[str, Any] = {"episodes": len(eps), "shards": len(records)}
-    for key in ("steps", "objects", "relational", "phrasing"):
+    for key in ("objects",) if inputs_only else ("steps", "objects", "relational", "phrasing"):
         c = Counter(_key(e.categories.get(key)) for e in eps)
         out[key] = dict(sorted(c.items()))
     return out
@@ -76,6 +79,10 @@ class Manifest:
     perturbation: Mapping[str, Any] | None = None
     """What made a perturbed copy of a part (``nsrmp-bench perturb``: kind, seed, the source
     part's root hash, the per-instance records' sha256), else None."""
+    private: Mapping[str, str] | None = None
+    """A private part's commitment to its secret (:mod:`nsrmp_bench.private_parts`)."""
+    inputs_only: bool = False
+    """Whether the part was packed without its gold (:mod:`nsrmp_bench.storage.inputs_only`)."""
 
     @property
     def official(self) -> bool:
@@ -112,7 +119,7 @@ class Manifest:
             "generator": self.generator,
             "versions": dict(self.versions),
             "index_range": list(self.index_range),
-            "counts": _counts(self.shards),
+            "counts": _counts(self.shards, inputs_only=self.inputs_only),
             "root_hash": self.root_hash,
             "shards": [s.to_dict(with_episodes=False) for s in self.shards],
             "episodes": rows,
@@ -121,6 +128,8 @@ class Manifest:
             **({"official": False, "spec": dict(self.spec)} if self.spec is not None else {}),
             **({"official": False, "perturbation": dict(self.perturbation)}
                if self.perturbation is not None else {}),
+            **({"private": dict(self.private)} if self.private is not None else {}),
+            **({"inputs_only": True} if self.inputs_only else {}),
         }
 
     def to_json(self) -> str:
@@ -176,6 +185,9 @@ class Manifest:
             spec=dict(data["spec"]) if "spec" in data and data.get("official") is False
             else None,
             perturbation=dict(data["perturbation"]) if "perturbation" in data else None,
+            private={str(k): str(v) for k, v in data["private"].items()}
+            if isinstance(data.get("private"), dict) else None,
+            inputs_only=data.get("inputs_only") is True,
         )
 
 
@@ -186,11 +198,13 @@ def build_manifest(
     generator: str | None = None,
     versions: Mapping[str, str] | None = None,
     spec: Mapping[str, Any] | None = None,
+    private: Mapping[str, str] | None = None,
 ) -> Manifest:
     """A manifest over ``records``, which must tile a contiguous index range.
 
     ``generator`` defaults to the generator ids the shards record; ``spec`` is the split
-    spec of an unofficial split (None for a shipped one).
+    spec of an unofficial split (None for a shipped one); ``private`` a private part's
+    commitment.
     """
     ordered = sorted(records, key=lambda r: r.start)
     for a, b in itertools.pairwise(ordered):
@@ -223,6 +237,7 @@ def build_manifest(
         shards=tuple(ordered),
         root_hash=root_hash(entries),
         spec=spec,
+        private=private,
     )
 
 

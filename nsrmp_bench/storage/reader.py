@@ -318,7 +318,27 @@ class EpisodeCollection:
             raise IndexError(msg)
         return i % n
 
+    @property
+    def inputs_only(self) -> bool:
+        """Whether the part holds no gold (``pack --inputs-only``): only its inputs read."""
+        if self.manifest is not None:
+            return self.manifest.inputs_only
+        row = self._rows[0] if self._rows else None
+        return row is not None and bool(self._file(row.shard).attrs.get("inputs_only", False))
+
+    def _no_gold(self) -> InvalidArgument:
+        return InvalidArgument(
+            f"{self.root} is an inputs-only part of {self.split} (packed without its gold): "
+            "it has no targets, final states or programs to read or score; read its inputs "
+            "(read_inputs, EpisodeDataset, predict), and score against the full part")
+
+    def instance_index(self, i: int) -> int:
+        """The instance index of position ``i`` (from the manifest; no file is read)."""
+        return self._rows[self._position(i)].index
+
     def _read(self, pos: int, images: bool) -> Episode:
+        if self.inputs_only:
+            raise self._no_gold()
         g, row = self._group(pos)
         try:
             ep = read_episode(g, images=images)
@@ -385,15 +405,19 @@ class EpisodeCollection:
 
     def read_targets(self, i: int, arrays: Sequence[str] = TARGET_ARRAYS) -> dict[str, Any]:
         """The targets of position ``i`` (see :func:`read_targets`)."""
+        if self.inputs_only:
+            raise self._no_gold()
         g, _ = self._group(self._position(i))
         return read_targets(g, arrays)
 
     def read_item(self, i: int, *, images: bool = True, arrays: Sequence[str] = TARGET_ARRAYS
-                  ) -> tuple[dict[str, Any], dict[str, Any]]:
-        """``(inputs, targets)`` of position ``i`` in one lookup (what a Dataset reads)."""
+                  ) -> tuple[dict[str, Any], dict[str, Any] | None]:
+        """``(inputs, targets)`` of position ``i`` in one lookup (what a Dataset reads);
+        targets are None in an inputs-only part."""
         g, row = self._group(self._position(i))
         try:
-            return read_inputs(g, images=images, visible=False), read_targets(g, arrays)
+            inputs = read_inputs(g, images=images, visible=False)
+            return inputs, None if self.inputs_only else read_targets(g, arrays)
         except (OSError, KeyError) as exc:
             msg = (
                 f"episode {row.id} in {self._path(row.shard)} cannot be read ({exc}); the "

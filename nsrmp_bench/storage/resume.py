@@ -193,19 +193,21 @@ def write_manifest(
     generator: str | None = None,
     verify: bool = True,
     spec: Mapping[str, Any] | None = None,
+    private: Mapping[str, str] | None = None,
 ) -> Manifest:
     """Build ``manifest.json`` from the complete shards of ``out_dir`` and write it.
 
     ``versions`` (package, simulator, ...) come from the caller. With ``index_range`` the
     shards must cover exactly that range. ``spec`` is the spec of an unofficial split,
-    written into the manifest (None for a shipped split).
+    written into the manifest (None for a shipped split); ``private`` a private part's
+    commitment.
     """
     state = scan_output(out_dir, verify=verify)
     if not state.complete:
         msg = f"no complete shard in {out_dir}; generate the shards first"
         raise InvalidArgument(msg)
     manifest = build_manifest(state.complete, split=split, versions=versions,
-                              generator=generator, spec=spec)
+                              generator=generator, spec=spec, private=private)
     if index_range is not None and manifest.index_range != tuple(index_range):
         msg = (
             f"the shards of {out_dir} cover indices {list(manifest.index_range)}, expected "
