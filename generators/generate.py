@@ -160,7 +160,7 @@ def generate_shard(
 # -- driver side ---------------------------------------------------------------------
 def shard_writer_mode(engine: Engine) -> Background:
     """How the shards' tasks write: in a forked writer process where every generating
-    process of this machine leaves a core for its writer (PyBullet holds the GIL through
+    process of the local machine leaves a core for its writer (PyBullet holds the GIL through
     its calls, so a writer thread mostly waits: measured, one worker wrote 42 episodes/s
     with a process and 32 with a thread), else on a thread (with every core generating,
     handing episodes to a process costs more than it frees: 45 against 48 episodes/s, two

@@ -10,7 +10,7 @@ if TYPE_CHECKING:  # type checkers see the real signature; at run time it is laz
     from nsrmp_bench.scoring.scorer import score as score
     from nsrmp_bench.storage.reader import open as open
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = ["__version__", "load_model", "open", "score"]
 """The top-level names: ``open`` (read data), ``score`` (score predictions) and

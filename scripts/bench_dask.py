@@ -4,7 +4,7 @@
                                  [--workers 2] [--shard-size 25] [--empty-tasks 200]
                                  [--repeat 2]
 
-Prints, in one run on this machine:
+Prints, in one run on the local machine:
 
 * episodes per second of ``generate_part`` for the first ``--limit`` instances with the
   local pool (``--engine local``: spawned processes, started by the call) and with a Dask
@@ -121,7 +121,7 @@ def main() -> None:
 
     # -- projection: 1,000,000 episodes on 100 machines x 16 cores ---------------------
     episodes, cores, shard = 1_000_000, 100 * 16, 100
-    per_core = n / t_local / w  # episodes per second per core, measured here
+    per_core = n / t_local / w  # episodes per second per core, measured in this run
     tasks = episodes // shard
     compute_s = episodes / (cores * per_core)
     overhead_s = tasks * empty_ms / 1e3  # as if the scheduler handled tasks one at a time
@@ -130,7 +130,7 @@ def main() -> None:
     total_s = rounds * shard_s + overhead_s
     bytes_per_episode = size / n
     print("projection, 1,000,000 episodes on 100 machines x 16 cores (1,600 workers):")
-    print(f"  {per_core:.2f} ep/s per core (measured here): {compute_s / 60:.1f} min of "
+    print(f"  {per_core:.2f} ep/s per core (measured in this run): {compute_s / 60:.1f} min of "
           f"compute if perfectly divided; {tasks:,} shards of {shard} take {shard_s:.0f} s "
           f"each, {rounds} rounds of them on {cores:,} workers = {rounds * shard_s / 60:.1f} "
           f"min; {tasks:,} x {empty_ms:.1f} ms = {overhead_s / 60:.1f} min of scheduler time "

@@ -37,9 +37,9 @@ Printed:
   verb's worker writes them (``make_episode`` into a ``ShardWriter``, committed: hashed,
   compressed, fsynced, renamed), and the ratio of that to generating alone (after);
 * 1024x768 (the original generator's image size): seconds per episode end to end, against
-  the original's 1.02 s per sample on one core of the machine issue 28 was filed on
-  (``shared/reference/nsrm-original-datagen.md`` §7.4) and, with ``--original-tree`` (a
-  checkout of ``dair-iitd/nsrmp`` at ``bf6ba54``), against the original measured here, in
+  the original's 1.02 s per sample on one core of a reference machine
+  (the original's documented figure) and, with ``--original-tree`` (a
+  checkout of ``dair-iitd/nsrmp`` at ``bf6ba54``), against the original measured in the same run, in
   the same alternation (``scripts/bench_original_generator.py``: ``--original-scenes``
   scenes of SingleStep, 5 objects, simple, seed 0, pinned to one core; wall seconds per
   sample with a demo.json).
@@ -119,7 +119,7 @@ from nsrmp_bench.storage.prefix_deflate import PrefixDeflater
 from nsrmp_bench.storage.writer import Background, ShardWriter
 
 ORIGINAL_S_PER_SAMPLE = 1.02
-"""The original generator, 1024x768, one core of this machine (see the module doc)."""
+"""The original generator, 1024x768, one core of a reference machine (see the module doc)."""
 
 
 def cpu_s() -> float:
@@ -339,7 +339,7 @@ def heap_costs(split: str, part: str, n: int = 40, rounds: int = 3) -> None:
 
 
 def original_run(tree: Path, scenes: int) -> tuple[float, float]:
-    """(wall, CPU) seconds per sample of the original generator at 1024x768, measured here
+    """(wall, CPU) seconds per sample of the original generator at 1024x768, measured in this run
     (``scripts/bench_original_generator.py``, imported from beside this script)."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     try:
@@ -581,7 +581,7 @@ def main() -> None:
         for name, xs in large.items():
             wall, cpu = med([x[0] for x in xs]), med([x[1] for x in xs])
             if name == "original":
-                print(f"  original, measured here ({args.original_scenes} scenes per run, "
+                print(f"  original, measured in this run ({args.original_scenes} scenes per run, "
                       f"pinned to one core): {wall:.3f} s wall, {cpu:.3f} s CPU per sample")
                 continue
             line = (f"  {name:6s}: {wall:.3f} s wall, {cpu:.3f} s CPU per episode: "
@@ -590,7 +590,7 @@ def main() -> None:
             if "original" in large:
                 here = [o[0] / x[0] for o, x in zip(large["original"], xs, strict=True)]
                 line += (f"; {med(here):.1f}x ({min(here):.1f}-{max(here):.1f}) the original "
-                         "measured here, wall, pair by pair")
+                         "measured in this run, wall, pair by pair")
             if name != "after":
                 pairs = [a[0] / x[0] for a, x in zip(large["after"], xs, strict=True)]
                 line += (f"; its speed against after's {med(pairs):.2f}x "

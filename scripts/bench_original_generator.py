@@ -1,4 +1,4 @@
-"""The original NSRMP data generator's speed, measured on this machine, one core.
+"""The original NSRMP data generator's speed, measured on the local machine, one core.
 
     python scripts/bench_original_generator.py --tree /tmp/nsrmp-original
         [--template SingleStep] [--objects 5] [--language simple] [--type any]
@@ -12,7 +12,7 @@ seconds per sample with a demo.json*, of ``dair-iitd/nsrmp`` at commit ``bf6ba54
 (``data_generation/construct.py``) asked for ``--scenes`` scenes (``--num_examples``; up
 to 3 instructions, so up to 3 samples, per scene, §5.1), each sample two 1024x768
 TinyRenderer scenes (S00 and S01) written as rgba/depth/mask PNGs, robot motion not
-simulated (objects teleported, §0). Our generator's goal (issue 28) is stated against this
+simulated (objects teleported). Our generator's speed is stated against this
 figure, so it must be measured on the same machine as ours: ``scripts/bench_generate.py``
 prints our side.
 

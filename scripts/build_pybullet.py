@@ -1,6 +1,6 @@
 """Build PyBullet 3.2.7 with nsrmp-bench's speed patches: an optional wheel, the same bytes.
 
-Most of what is left of an instance's reset (``World.begin``, README "Generation speed")
+Most of what is left of an instance's reset (``World.begin``, ``docs/performance.md``)
 is spent inside PyBullet on work whose results nothing reads: zeroing and linking two pools
 of 4,096 contact manifolds and collision algorithms that every ``resetSimulation`` builds
 afresh (and zeroing every aligned block twice), parsing the same two DNA tables again
@@ -20,7 +20,8 @@ nothing else:
 - ``0006``: a convex hull's vertices are kept per list of input points (compared byte for
   byte) and handed out again, instead of computing the same hull for every instance.
 
-Every committed v2 part regenerates bit for bit with the patched build (README). The
+Every committed v2 part regenerates bit for bit with the patched build
+(``docs/performance.md``). The
 script downloads the pinned sdist from the package registry (or takes ``--sdist``), checks
 its sha256, applies the patches, and builds a wheel versioned ``3.2.7+nsrmp.2`` with this
 interpreter's numpy (about 5 minutes on 2 cores; POSIX: the pool patch uses

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The layers of DESIGN.md (pyproject's [tool.importlinter] contracts) checked with
+# The layers of docs/architecture.md (pyproject's [tool.importlinter] contracts) checked with
 # import-linter over the whole nsrmp_bench namespace as installed (scripts/installed_copy.sh
 # says why a copy is checked).
 #   scripts/lint_imports_installed.sh      (uses .venv/bin/pip and .venv/bin/lint-imports)

@@ -23,7 +23,7 @@ The Panda's pick-and-place lives in its own room, :mod:`nsrmp_bench.generators.r
 replaying predictions with it in :mod:`nsrmp_bench.generators.replay`.
 
 Choices, with the measurements behind them (``scripts/bench_render.py --breakdown``;
-CPU ms per render, 15 objects, this 2-core machine):
+CPU ms per render, 15 objects, 2 CPU cores):
 
 =============================================  =========  ==========
 scene variant                                  320x240    1024x768
@@ -55,8 +55,8 @@ lean Panda + 15 objects, no table              7          52
   (``Camera.projection_matrix_gl_pixel_centred``), after which rendered masks and projected
   silhouettes coincide (IoU 0.9998).
 * **Determinism**: every instance starts from a reset simulation (Bullet keeps history
-  in its broadphase that taking bodies out and back in does not clear: issue 18, the
-  withdrawn v1 splits); objects are multibodies, scenery and robot never form contact
+  in its broadphase that taking bodies out and back in does not clear: the reason the
+  v1 splits were withdrawn); objects are multibodies, scenery and robot never form contact
   pairs among themselves, pairs are processed in sorted order; tests realise episodes
   after other episodes, in shuffled orders and in a subprocess and compare every byte.
 * **Settling** runs with 30 solver iterations (the world default, 50, is for grasping):

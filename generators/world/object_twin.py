@@ -15,7 +15,7 @@ bodies take their objects' poses from the physics client.
 The twin's pixels are the world's: the same meshes, colours and textures at the same
 poses, drawn by the same renderer with the scenery absent instead of transparent. Body ids
 differ, so segmentation is read through the twin's own lookup table. Proven by ``generate``
-+ ``verify`` of every committed part (README, "Generation speed") and by
++ ``verify`` of every committed part (``docs/performance.md``) and by
 ``tests/world/test_object_twin.py``, which compares the twin's renders with the world's
 own, pixel for pixel.
 """

@@ -19,7 +19,8 @@ compare them):
   cursor and the order of its pair cache and contact manifolds. Taking bodies out of the
   collision world and putting them back (the v1 world) left that state behind, and an
   episode realised after another one differed in its last bits from the same episode
-  realised first (objects-v1/test 000643 after 000642; issue 18). The reset costs
+  realised first (objects-v1/test 000643 after 000642; the v1 splits were withdrawn for
+  it). The reset costs
   ~30 ms per instance (``scripts/bench_generate.py``); it is the price of a split that
   is the same bytes whatever the shard size, worker count or order of generation;
 * objects are reduced-coordinate multibodies, like the table and the robot, so all
@@ -459,8 +460,8 @@ class World:
         every point of its mesh: for teleport-and-settle, where the arm stands folded at
         rest, clear of the workspace, and touches nothing. Its links keep their bounding
         boxes to the bit, so the broadphase, the only part of Bullet that sees an arm no
-        object touches, is the same (the same bytes on every committed part; README,
-        "Generation speed"), and the reset skips most of the hull computation, its
+        object touches, is the same (the same bytes on every committed part;
+        ``docs/performance.md``), and the reset skips most of the hull computation, its
         costliest part. :meth:`near_robot` says whether the objects came near the arm;
         realising then starts again with its hulls whole. Ignored (hulls whole) with
         scenery visuals or without ``lean_reset``.

@@ -18,14 +18,14 @@ __all__ = ["add_engine_arguments", "engine_from_args"]
 def add_engine_arguments(parser: argparse.ArgumentParser, *, workers: int) -> None:
     """Add the engine options; ``workers`` is the verb's default worker count."""
     parser.add_argument("--engine", choices=ENGINES, default="local",
-                        help="where tasks run: local (this machine's process pool, the "
+                        help="where tasks run: local (a process pool on the local machine, the "
                              "default) or dask (a Dask cluster; needs the dask extra)")
     parser.add_argument("--workers", type=positive_int, default=workers,
-                        help=f"worker processes on this machine (default {workers}; 1 runs "
+                        help=f"local worker processes (default {workers}; 1 runs "
                              "in this process); with --engine dask, the LocalCluster's size")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="with --engine dask: a running scheduler, e.g. "
-                             "tcp://HOST:8786 (default: start a LocalCluster on this machine)")
+                             "tcp://HOST:8786 (default: start a LocalCluster on the local machine)")
 
 
 def engine_from_args(args: argparse.Namespace) -> Engine:

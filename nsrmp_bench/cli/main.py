@@ -69,7 +69,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
 }
 """The verbs as the top-level help lists them, by what they are for."""
 
-START_HERE = """start here (seconds; then the README):
+START_HERE = """start here (seconds; then the README and docs/):
   nsrmp-bench generate --split smoke-v2 --out data/smoke
   nsrmp-bench baseline noop --data data/smoke/test --out noop.jsonl
   nsrmp-bench score noop.jsonl --data data/smoke/test"""

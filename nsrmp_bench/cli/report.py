@@ -3,7 +3,7 @@
 Example::
 
     nsrmp-bench report results --paper                  # prints Markdown, writes .md/.tex
-    nsrmp-bench report leaderboards/site --paper --readme README.md
+    nsrmp-bench report leaderboards/site --paper --readme docs/results.md
 
 Renders Table I (IoU, IoU-M, program accuracy; single/double step; simple/complex) and
 Table II (identification and placement accuracy) in the paper's layout for every run on

@@ -46,7 +46,7 @@ def open_engine(name: str = "local", *, workers: int = 2,
     if name == "local":
         if scheduler is not None:
             msg = (f"--scheduler {scheduler!r} needs --engine dask; the local engine "
-                   "runs on this machine only")
+                   "runs on the local machine only")
             raise InvalidArgument(msg)
         return InlineEngine() if workers == 1 else LocalPoolEngine(workers)
     from nsrmp_bench.engine.dask_cluster import DaskEngine

@@ -42,7 +42,7 @@ class Engine(abc.ABC):
 
     @property
     def local_processes(self) -> int | None:
-        """How many processes of this machine run tasks at once (None: not known here,
+        """How many processes of the local machine run tasks at once (None: not known here,
         e.g. a cluster's workers), so that a task can tell whether cores are left over."""
         return None
 
@@ -72,7 +72,7 @@ class Engine(abc.ABC):
     def require_shared_dir(self, path: Path) -> None:  # noqa: B027 (a default, not abstract)
         """Raise unless every worker sees ``path`` (a directory tasks read or write).
 
-        Workers on this machine always do; a cluster engine checks.
+        Workers on the local machine always do; a cluster engine checks.
         """
 
     def close(self) -> None:  # noqa: B027 (a default, not abstract)

@@ -8,7 +8,7 @@ CPU-bound Python holding one PyBullet world per process) and the same package ve
 this process (other versions could write other bytes). Dask's nanny sets
 ``MALLOC_TRIM_THRESHOLD_=65536`` in every worker by default; an explicit trim threshold turns
 off glibc's adaptive mmap threshold, so every image-sized array is mmap'd and unmapped
-again (measured here: system time 0.3 s -> 3 s and 40% fewer episodes per second in one
+again (measured: system time 0.3 s -> 3 s and 40% fewer episodes per second in one
 process). The LocalCluster starts without it, and a warning names workers that have it.
 
 Faults: when a worker dies, Dask runs its tasks again on another worker; tasks write
@@ -242,7 +242,7 @@ class DaskEngine(Engine):
                 f"Dask worker(s) {', '.join(trimmed)} run with {_TRIM_ENV} set (the Dask "
                 "nanny's default), which turns off glibc's adaptive mmap threshold and slowed "
                 "generation by ~40% on our machine; start the workers with "
-                f"`{_TRIM_KEY}: null` in their Dask config (see the README)",
+                f"`{_TRIM_KEY}: null` in their Dask config (see docs/scale-out.md)",
                 RuntimeWarning, stacklevel=2)
         mine = software()
         for address, theirs in sorted(client.run(software).items()):

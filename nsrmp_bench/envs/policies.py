@@ -32,6 +32,8 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import os
+import sys
 from collections.abc import Callable
 from functools import partial
 from typing import Any, Protocol
@@ -154,17 +156,26 @@ def make_policy(name: str, env: Any) -> Policy:
     return _load(name)
 
 
+def _current_directory_on_path() -> None:
+    """Find a policy's module in the current directory, as ``python -m`` does: a console
+    script's ``sys.path`` starts with its own folder, not the current directory."""
+    here = os.getcwd()
+    if not any(os.path.abspath(p or os.curdir) == here for p in sys.path):
+        sys.path.insert(0, here)
+
+
 def _load(name: str) -> Policy:
     module_name, sep, attr = name.partition(":")
     if not sep or not module_name or not attr:
         msg = (f"unknown policy {name!r}; use one of {sorted(NAMED_POLICIES)} or "
                "'module:function' naming a callable policy(observation) -> action")
         raise InvalidArgument(msg)
+    _current_directory_on_path()
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:
         msg = (f"policy {name!r}: module {module_name!r} cannot be imported ({exc}); put it "
-               "on PYTHONPATH or install it")
+               "in the current directory or on PYTHONPATH, or install it")
         raise InvalidArgument(msg) from exc
     obj: Any = module
     for part in attr.split("."):

@@ -1,12 +1,14 @@
 """One colour and one marker per model id, the same in every figure and on the site.
 
-The colours are Paul Tol's colour-blind-safe *muted* scheme (nine colours) followed by
-three of Okabe and Ito's (blue, orange, vermillion): twelve in all. The models the
-repository ships have fixed places (:data:`FIXED`), so adding an entry never recolours
-them; any other model id takes the first free colour in sorted-id order, and past twelve
-models the colours repeat with the next marker, so every model still differs in colour
-or marker. The reference rows (the ``baseline`` kind: oracle, noop, random) are not
-coloured series: they are drawn as grey labelled lines (:data:`REFERENCE_STYLES`).
+The colours are Paul Tol's colour-blind-safe *muted* scheme (nine colours), three of
+Okabe and Ito's (blue, orange, vermillion), then eight from Tol's *vibrant*, *dark* and
+*light* schemes: twenty in all, so every model of a figure has a colour of its own (the
+repository ships seventeen). The models the repository ships have fixed places
+(:data:`FIXED`), so adding an entry never recolours them; any other model id takes the
+first free colour in sorted-id order, and past twenty models the colours repeat with the
+next marker, so every model still differs in colour or marker. The reference rows (the
+``baseline`` kind: oracle, noop, random) are not coloured series: they are drawn as grey
+labelled lines (:data:`REFERENCE_STYLES`).
 Needs nothing but the standard library.
 """
 
@@ -32,10 +34,19 @@ PALETTE = (
     "#0072B2",  # blue        (Okabe-Ito)
     "#E69F00",  # orange
     "#D55E00",  # vermillion
+    "#EE3377",  # magenta     (Tol vibrant)
+    "#CC3311",  # red
+    "#225555",  # dark teal   (Tol dark)
+    "#663333",  # brown
+    "#666633",  # dark olive
+    "#77AADD",  # light blue  (Tol light)
+    "#BBCC33",  # pear
+    "#FFAABB",  # pink
 )
-"""Twelve colour-blind-safe colours."""
+"""Twenty colours, colour-blind-safe schemes first."""
 
-MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "p", "h", "*")
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "p", "h", "*", "d", "H", "8", "o",
+           "s", "^", "D", "v")
 """Matplotlib markers, one per palette place (the site shows the colour only)."""
 
 FIXED = {
@@ -47,6 +58,11 @@ FIXED = {
     "nmn-v1+detector-v1": 5,
     "nsrm-v1+classical-v1": 6,
     "nmn-v1+classical-v1": 7,
+    "dense-v2": 8,
+    "dense5x-v2": 9,
+    "nmn-v2": 10,
+    "nsrm-v2": 11,
+    "nsrm-v2+classical-v1": 12,
 }
 """Palette places of the models the repository ships."""
 

@@ -18,10 +18,11 @@ How they read: every model id has one colour and marker (:mod:`.colours`), the s
 every figure and on the site. The reference rows (oracle, noop, random: the ``baseline``
 kind) are grey labelled lines, not coloured series, and the value axis is fitted to the
 models, so an oracle at 1.0 does not squeeze them; a reference off the scale is named with
-its value at the edge. The legend sits below the axes, outside them, in as many rows as it
-needs. Where one axis would hold more than :data:`MAX_CURVES` models, the figure becomes
-small multiples, one panel per protocol (gold boxes, detected boxes, dense;
-:mod:`.protocols`) with a shared value axis.
+its value at the edge; every label inside the axes is moved clear of the data lines,
+markers and bars (:mod:`.label_place`). The legend sits below the axes, outside them, in
+as many rows as it needs. Where one axis would hold more than :data:`MAX_CURVES` models,
+the figure becomes small multiples, one panel per protocol (gold boxes, detected boxes,
+dense; :mod:`.protocols`) with a shared value axis.
 
 Only the ``plot`` extra (matplotlib) is needed: no torch, no PyBullet. The files are the
 same bytes for the same summary and matplotlib version (no dates, a fixed SVG hash salt);
@@ -40,6 +41,7 @@ from typing import Any
 from nsrmp_bench._optional import require
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.results.colours import Style, model_styles, reference_style
+from nsrmp_bench.results.label_place import movable, place_labels
 from nsrmp_bench.results.protocols import PROTOCOLS, is_reference, protocol_of
 from nsrmp_bench.results.summary import Estimate, Results
 
@@ -237,12 +239,13 @@ def _finite(values: Sequence[float]) -> list[float]:
     return [v for v in values if math.isfinite(v)]
 
 
-def _value_range(estimates: Sequence[Estimate], *, from_zero: bool) -> tuple[float, float]:
+def _value_range(estimates: Sequence[Estimate], *, from_zero: bool,
+                 headroom: float = 0.06) -> tuple[float, float]:
     lows = _finite([e.low if math.isfinite(e.low) else e.value for e in estimates])
     highs = _finite([e.high if math.isfinite(e.high) else e.value for e in estimates])
     if not lows:
         return 0.0, 1.05
-    top = min(1.05, max(highs) + 0.06)
+    top = min(1.05, max(highs) + headroom)
     bottom = 0.0 if from_zero else max(0.0, min(lows) - 0.06)
     return bottom, max(top, bottom + 0.1)
 
@@ -257,10 +260,10 @@ def _legend(fig: Any, handles: list[Any], labels: list[str], width: float) -> No
 def _off_scale(ax: Any, model: str, value: float, low: float, high: float,
                slot: int) -> None:
     above = value > high
-    ax.text(0.99, 0.91 - 0.07 * slot if above else 0.02 + 0.07 * slot,
-            f"{model} {value:.2f} ({'above' if above else 'below'} the scale)",
-            transform=ax.transAxes, ha="right", va="top" if above else "bottom",
-            fontsize=7, color=reference_style(model).colour)
+    movable(ax.text(0.99, 0.91 - 0.07 * slot if above else 0.02 + 0.07 * slot,
+                    f"{model} {value:.2f} ({'above' if above else 'below'} the scale)",
+                    transform=ax.transAxes, ha="right", va="top" if above else "bottom",
+                    fontsize=7, color=reference_style(model).colour))
 
 
 def _draw_axis(results: Results, axis: Axis, look: _Look) -> Any:
@@ -292,29 +295,30 @@ def _draw_axis(results: Results, axis: Axis, look: _Look) -> Any:
                                         marker=style.marker, markersize=4.5,
                                         color=style.colour, linewidth=1.6)
         slot = 0
-        labels: list[tuple[float, str, str]] = []  # (height in the axes, text, colour)
+        labels: list[tuple[float, str, str, Any]] = []  # (height in the axes, text, colour, line)
         for ref in refs:
             style = reference_style(ref.model)
             values = [e.value for e in ref.estimates]
             (handles[ref.model],) = ax.plot(ref.xs, values, color=style.colour,
                                             linestyle=style.linestyle, linewidth=1.1)
             if low <= values[-1] <= high:
-                labels.append(((values[-1] - low) / (high - low), ref.model, style.colour))
+                labels.append(((values[-1] - low) / (high - low), ref.model, style.colour,
+                               handles[ref.model]))
             else:
                 _off_scale(ax, ref.model, sum(values) / len(values), low, high, slot)
                 slot += 1
         floor = -1.0
-        for height, text, colour in sorted(labels):  # stacked, never on top of each other
-            floor = max(height + 0.01, floor + 0.05)
-            ax.text(0.99, floor, text, transform=ax.transAxes, ha="right", va="bottom",
-                    fontsize=7, color=colour)
+        for height, text, colour, line in sorted(labels, key=lambda x: x[:3]):
+            floor = max(height + 0.01, floor + 0.05)  # stacked, never on top of each other
+            movable(ax.text(0.99, floor, text, transform=ax.transAxes, ha="right",
+                            va="bottom", fontsize=7, color=colour), own=line)
         if axis.held_out is not None and train and train[-1] < xs[-1]:
             edge = train[-1] + 0.5
             ax.axvline(edge, color="#444444", linestyle="--", linewidth=0.8)
-            ax.text(edge - 0.1, 0.98, "train range", ha="right", va="top", fontsize=7,
-                    transform=ax.get_xaxis_transform())
-            ax.text(edge + 0.1, 0.98, "held out", ha="left", va="top", fontsize=7,
-                    transform=ax.get_xaxis_transform())
+            movable(ax.text(edge - 0.1, 0.98, "train range", ha="right", va="top",
+                            fontsize=7, transform=ax.get_xaxis_transform()))
+            movable(ax.text(edge + 0.1, 0.98, "held out", ha="left", va="top", fontsize=7,
+                            transform=ax.get_xaxis_transform()))
         ax.set_xticks(xs)
         ax.set_xlim(xs[0] - 0.5, xs[-1] + 0.5)
         ax.set_ylim(low, high)
@@ -328,6 +332,7 @@ def _draw_axis(results: Results, axis: Axis, look: _Look) -> Any:
     order = [c.model for c in models] + [c.model for c in refs]
     _legend(fig, [handles[m] for m in order],
             [m if m not in look.references else f"{m} (reference)" for m in order], width)
+    place_labels(fig)
     return fig
 
 
@@ -341,7 +346,7 @@ def _draw_categories(results: Results, title: str,
     models = [m for m in table if m not in look.references]
     panels = look.panels(models) if models else [("", [])]
     estimates = [e for m in (models or refs) for e in table[m]]
-    low, high = _value_range(estimates, from_zero=True)
+    low, high = _value_range(estimates, from_zero=True, headroom=0.1)  # room for a label
     width = 8.4
     fig = _figure(width, 1.2 + 2.5 * len(panels))
     axes = fig.subplots(len(panels), 1, sharex=True, sharey=True, squeeze=False)[:, 0]
@@ -387,6 +392,7 @@ def _draw_categories(results: Results, title: str,
     _legend(fig, [handles[m] for m in order if m in handles],
             [m if m not in look.references else f"{m} (reference)"
              for m in order if m in handles], width)
+    place_labels(fig)
     return fig
 
 

@@ -8,8 +8,8 @@ the summary, in its order. "Complex" is the paper's word for relational instruct
 (``relational = True``); identification and placement are over single-step instances.
 
 The tables render as Markdown (``paper-tables.md``) and LaTeX (``paper-tables.tex``), and
-can replace a marked block of a Markdown file (the README's Results section) so that the
-figures shown there are the ones recomputed from the summary.
+can replace a marked block of a Markdown file (the documentation's results page,
+``docs/results.md``) so that the figures shown there are the ones recomputed from the summary.
 """
 
 from __future__ import annotations

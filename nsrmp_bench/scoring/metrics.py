@@ -1,6 +1,6 @@
 """The metrics of ``scorer-v1``: per-instance values, vectorised over a whole split.
 
-Definitions (``nsrmp_bench/scoring/metrics.py`` is their reference; the README repeats them):
+Definitions (``nsrmp_bench/scoring/metrics.py`` is their reference; ``SCORING.md`` repeats them):
 
 * **IoU**: mean over all objects of IoU(predicted final amodal box, gold final amodal box),
   objects matched by index (episode order). Per instance, then averaged over instances.

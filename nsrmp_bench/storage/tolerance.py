@@ -14,7 +14,7 @@ summary agrees within :data:`ROBOT_TOLERANCES`:
   components within ``orientation`` (q and -q are the same rotation);
 * every amodal box in every state within ``box_px`` (pixel coordinates);
 * the trajectory: sample count within ``trajectory_samples``, and every recorded
-  end-effector position within ``trajectory_mm`` of the other machine's path (the polyline
+  end-effector position within ``trajectory_mm`` of the other run's path (the polyline
   through its samples, within ``trajectory_samples`` samples of the same time).
 
 The path is compared as a path, not sample by sample: once the fingers touch an object,

@@ -7,7 +7,7 @@
   ``query * key``; the heads' distributions are multiplied and renormalised (the
   original's "colour" and "shape" heads). Objects are scored independently: the only
   interaction between them is the softmax, as in the original. (The original scores an
-  MLP of ``[query, object]``; measured here from scratch, subject choice stayed at chance
+  MLP of ``[query, object]``; measured from scratch, subject choice stayed at chance
   for 8 epochs of 320 episodes with it and began to learn with the product.)
 - :class:`ActionDecoder`: the pooled sentence to a distribution over the 3 actions.
 

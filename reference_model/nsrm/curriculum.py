@@ -13,7 +13,7 @@
    (and "no split") is scored by its loss, each piece parsed and executed with the frozen
    argmax parser, and the splitter learns the softmin of those losses (cross-entropy).
    (The original's exact expected loss has vanishing gradients once the splitter settles
-   on "no split", which it does while the pieces still parse badly: measured here.)
+   on "no split", which it does while the pieces still parse badly: measured.)
 5. ``multistep``: every instruction, split by the splitter; REINFORCE over the pieces'
    programs, so that later steps learn ``it``.
 

@@ -150,7 +150,7 @@ def codec_table(episodes: list[Episode], out: Path) -> list[tuple[str, float, fl
 
         readers.append(read)
         rows.append((name, path.stat().st_size / len(episodes) / 1024, wt * 1e3, 0.0))
-    # read in alternating order, best of 7 rounds: this machine is shared and noisy
+    # read in alternating order, best of 7 rounds: timings on a busy machine are noisy
     best = [float("inf")] * len(rows)
     for r in range(7):
         order = range(len(rows)) if r % 2 == 0 else reversed(range(len(rows)))

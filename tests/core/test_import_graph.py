@@ -64,7 +64,7 @@ def test_no_import_cycle_within(package: str) -> None:
     assert not cycles, f"import cycles in {package}: {cycles[0]}"
 
 
-# The layers of DESIGN.md (also pyproject's [tool.importlinter] contracts, checked over the
+# The layers of docs/architecture.md (also pyproject's [tool.importlinter] contracts, checked over the
 # installed namespace by scripts/lint_imports_installed.sh). Read here from the source
 # folders as the build maps them, every import counted: module level, inside functions,
 # and importlib.import_module / __import__ of a literal name.

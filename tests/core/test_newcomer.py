@@ -1,4 +1,4 @@
-"""What a new user runs into first (issue 26): output folders, signals, names, messages.
+"""What a new user runs into first: output folders, signals, names, messages.
 
 Each test is one or a few CLI calls on real data and an assertion on the exit status and
 the message.

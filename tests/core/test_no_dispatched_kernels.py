@@ -1,4 +1,4 @@
-"""No numpy transcendental ufunc where results reach stored bytes or decisions (issue 18).
+"""No numpy transcendental ufunc where results reach stored bytes or decisions.
 
 numpy dispatches ``np.sin``, ``np.arccos``, ``np.exp``, ... to SIMD kernels chosen by CPU
 feature (SVML on AVX-512), whose last bits differ from libm's; generation and scoring use

@@ -70,7 +70,7 @@ def test_unknown_split_names_close_matches_and_versions() -> None:
 def test_a_withdrawn_split_names_its_successor_and_why() -> None:
     assert "paper-v1" in list_splits(withdrawn=True)
     assert "paper-v1" not in list_splits()
-    with pytest.raises(UnknownId, match=r"'paper-v1' was withdrawn: .*issue 18.*Use 'paper-v2'"):
+    with pytest.raises(UnknownId, match=r"'paper-v1' was withdrawn: .*regenerate the committed bytes.*Use 'paper-v2'"):
         load_split("paper-v1")
     successor = load_split("paper-v2").to_dict()
     assert successor["supersedes"]["id"] == "paper-v1"

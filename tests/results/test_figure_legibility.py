@@ -15,6 +15,7 @@ from site_build import SITE
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.results.colours import PALETTE, REFERENCE_STYLES, model_styles
 from nsrmp_bench.results.figures import MAX_CURVES, draw_figures, figure_names, render
+from nsrmp_bench.results.label_place import label_overlaps
 from nsrmp_bench.results.protocols import DENSE, DETECTED, GOLD, protocol_of
 from nsrmp_bench.results.summary import Results
 
@@ -101,8 +102,40 @@ def test_one_colour_per_model_everywhere() -> None:
     assert model_styles(["nsrm-v1", "zz-v1", "aa-v1"])["nsrm-v1"] == shipped["nsrm-v1"]
     many = model_styles([f"m{i:02d}-v1" for i in range(30)])
     assert len({(s.colour, s.marker) for s in many.values()}) == 30
-    twelve = model_styles([f"m{i:02d}-v1" for i in range(12)])
-    assert {s.colour for s in twelve.values()} == set(PALETTE)
+    twenty = model_styles([f"m{i:02d}-v1" for i in range(len(PALETTE))])
+    assert {s.colour for s in twenty.values()} == set(PALETTE)  # a colour each
+
+
+@pytest.mark.parametrize("name", ["iou_m_by_objects", "iou_m_by_steps", "iou_m_by_category",
+                                  "iou_m_by_objects--smoke-v2-test"])
+def test_every_model_of_a_figure_has_a_colour_of_its_own(name: str) -> None:
+    results = Results.read(SITE)
+    fig = render(results, name)
+    handles = [h for legend in fig.legends for h in legend.legend_handles]
+    labels = [t.get_text() for t in _legend_texts(fig)]
+    colours = {}
+    for handle, label in zip(handles, labels, strict=True):
+        if not label.endswith("(reference)"):
+            face = getattr(handle, "get_facecolor", None)
+            colour = handle.get_color() if hasattr(handle, "get_color") else face()
+            colours[label] = str(colour)
+    assert len(colours) >= 10 and len(set(colours.values())) == len(colours), colours
+
+
+@pytest.mark.parametrize("name", ["iou_m_by_objects", "iou_m_by_steps", "iou_m_by_category",
+                                  "iou_m_by_objects--smoke-v2-test",
+                                  "iou_m_by_steps--smoke-v2-test"])
+def test_no_label_is_overprinted(name: str) -> None:
+    """Reference names, off-scale notes and the train-range marks sit clear of every data
+    line, marker, bar and other label (a reference's name may touch its own line)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    for results in (Results.read(SITE), _twelve()):
+        if name not in figure_names(results):
+            continue
+        fig = render(results, name)
+        FigureCanvasAgg(fig).draw()
+        assert label_overlaps(fig) == [], name
 
 
 def test_protocol_comes_from_the_scorer_counts() -> None:

@@ -1,5 +1,5 @@
 """The paper's Table I and II: its published numbers beside ours, as Markdown, LaTeX and the
-README's block, every number of ours read from the results summary."""
+the results page's block (docs/results.md), every number of ours read from the results summary."""
 
 from __future__ import annotations
 
@@ -94,12 +94,12 @@ def test_without_paper_rows_shows_ours_only_and_says_when_there_are_none() -> No
     assert math.isnan(published.values[2][0])  # NMN+ has no action accuracy: "--"
 
 
-def test_readme_block_is_the_report_of_the_committed_runs() -> None:
-    readme = (REPO / "README.md").read_text()
+def test_results_page_block_is_the_report_of_the_committed_runs() -> None:
+    readme = (REPO / "docs" / "results.md").read_text()
     expected = replace_block(readme, render_markdown(Results.read(SITE), paper=True))
     assert readme == expected, (
-        "README's paper tables are stale: run "
-        "`nsrmp-bench report leaderboards/site --paper --readme README.md`")
+        "docs/results.md's paper tables are stale: run "
+        "`nsrmp-bench report leaderboards/site --paper --readme docs/results.md`")
 
 
 def test_report_cli_writes_md_tex_and_replaces_the_block(tmp_path: Path) -> None:

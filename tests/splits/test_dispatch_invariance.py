@@ -1,4 +1,4 @@
-"""Generation does not depend on which SIMD / BLAS kernels the CPU gets (issue 18).
+"""Generation does not depend on which SIMD / BLAS kernels the CPU gets.
 
 Two subprocesses generate a small mixed part, one with numpy's and OpenBLAS's default
 dispatch, one with every numpy dispatch target disabled (``NPY_DISABLE_CPU_FEATURES``, only

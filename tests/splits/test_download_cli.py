@@ -1,4 +1,4 @@
-"""``download`` as the README shows it: the installed CLI, progress bars on (issue 18).
+"""``download`` as the documentation shows it: the installed CLI, progress bars on.
 
 The console script of the venv the tests run in (installed the README's way,
 ``pip install -e ".[all,dev]"``) packs smoke-v2, serves it on 127.0.0.1 and downloads it

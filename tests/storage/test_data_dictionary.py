@@ -1,4 +1,4 @@
-"""The README's data dictionary is the shard's real layout: every attribute and dataset of
+"""The data dictionary of the documentation (``docs/data.md``) is the shard's real layout: every attribute and dataset of
 a freshly generated smoke-v2 episode has a row, every row (but the robot-only ones, which
 a teleport episode lacks) is in the episode, and each row's dtype and rank are the stored
 ones."""
@@ -12,13 +12,13 @@ from typing import Any
 import h5py
 import numpy as np
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+README = Path(__file__).resolve().parents[2] / "docs" / "data.md"
 DTYPES = {"string": "O", "bool": "bool", "int16": "int16", "int64": "int64", "uint8": "uint8",
           "float32": "float32", "float64": "float64"}
 
 
 def dictionary() -> dict[str, tuple[str, str]]:
-    """field -> (type cell, what-it-is cell) of the README's table."""
+    """field -> (type cell, what-it-is cell) of the data page's table."""
     text = README.read_text("utf-8")
     table = text[text.index("<!-- data-dictionary:begin -->"):
                  text.index("<!-- data-dictionary:end -->")]
@@ -62,8 +62,8 @@ def test_the_readme_dictionary_matches_a_generated_episode(smoke_v2_test: Path) 
         fields = stored(group)
         optional = {k for k, (_, what) in rows.items() if what.startswith("robot episodes only")}
         assert set(fields) == set(rows) - optional, (
-            f"missing from the README: {sorted(set(fields) - set(rows))}; "
-            f"in the README but not stored: {sorted(set(rows) - optional - set(fields))}")
+            f"missing from docs/data.md: {sorted(set(fields) - set(rows))}; "
+            f"in docs/data.md but not stored: {sorted(set(rows) - optional - set(fields))}")
         for name, value in fields.items():
             kind, ndim = _kind(value)
             cell = rows[name][0]

@@ -1,5 +1,5 @@
 """`pack --inputs-only` on a generated smoke-v2: every stored field of every episode is a
-README data-dictionary row and none of them is gold (no targets, final states, programs,
+data-dictionary row (docs/data.md) and none of them is gold (no targets, final states, programs,
 seeds); every non-gold row survives; the manifest keeps the part's root hash and verifies
 against the committed one; `EpisodeDataset` reads it as usual with no targets; reading or
 scoring the gold is refused with a clear message."""

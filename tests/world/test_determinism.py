@@ -72,7 +72,7 @@ def test_another_process_realises_the_same_bytes(world: Any) -> None:
 def test_an_instance_realised_after_another_equals_it_realised_first() -> None:
     """The v1 world kept Bullet's broadphase history across instances: objects-v1/test
     000643 realised right after 000642 differed in its last bits from 000643 realised
-    first (issue 18). Every instance now starts from a reset simulation."""
+    first (why the v1 splits were withdrawn). Every instance now starts from a reset simulation."""
     from nsrmp_bench.generators.generate import make_episode
     from nsrmp_bench.generators.world.world import World
     from nsrmp_bench.split_specs import load_split
