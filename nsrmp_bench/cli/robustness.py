@@ -45,6 +45,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--board", type=Path, default=None,
                         help="also write the table as a robustness board in this folder "
                         "(e.g. leaderboards/robustness)")
+    parser.add_argument("--reuse", action="store_true",
+                        help="score the predictions files already in DIR/predictions as "
+                        "they are (remove one to predict it again)")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
 
@@ -90,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
         require("torch")  # before anything is written
     say = None if args.quiet else print
     suite = run_suite(args.sources, args.data, args.out, kinds=args.kinds, seed=args.seed,
-                      words=args.words, runners=run_with, say=say)
+                      words=args.words, runners=run_with, say=say, reuse=args.reuse)
     if args.board is not None:
         stem = suite.split.replace("/", "-")
         args.board.mkdir(parents=True, exist_ok=True)

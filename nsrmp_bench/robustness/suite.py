@@ -173,10 +173,12 @@ def _predict(source: Source, data: Path, pred: Path, runners: Runners) -> None:
 def run_suite(
     sources: Sequence[str], data: str | os.PathLike[str], out: str | os.PathLike[str], *,
     kinds: Sequence[str] = KINDS, seed: int = SUITE_SEED, words: str = "test",
-    runners: Runners | None = None, say: Say | None = None,
+    runners: Runners | None = None, say: Say | None = None, reuse: bool = False,
 ) -> Suite:
     """Every source on ``data`` and on its perturbation by each of ``kinds`` (with the word
-    lists ``words``: ``test``, the suite's, or ``dev`` for selecting a model)."""
+    lists ``words``: ``test``, the suite's, or ``dev`` for selecting a model). With
+    ``reuse`` a predictions file already in ``out`` is scored as it is, not written again
+    (remove it to predict again)."""
     tell: Say = say if say is not None else (lambda _line: None)
     run_with = runners or Runners()
     bad = [k for k in kinds if k not in KINDS]
@@ -202,7 +204,8 @@ def run_suite(
         preds = {}
         for kind, part in parts.items():
             pred = out_p / "predictions" / f"{kind}--{source.name}.jsonl"
-            _predict(source, part, pred, run_with)
+            if not (reuse and pred.exists()):
+                _predict(source, part, pred, run_with)
             preds[kind] = pred
         clean = score(preds[CLEAN], data_p, breakdown=False)
         for kind in kinds:

@@ -52,7 +52,10 @@ PREPOSITIONS: Final = frozenset({"on", "onto", "upon", "atop", "to", "left", "ri
 """Spatial prepositions (and the two sides) that begin a fronted destination."""
 _TOKEN: Final = re.compile(r"[a-z]+|[.,!?;]")
 _ENDS: Final = frozenset(".!?;")
-_CLAUSE_STARTS: Final = frozenset({"then", "and", "next", "finally", "lastly", "afterwards"})
+_CLAUSE_STARTS: Final = frozenset({"then", "and", "finally", "lastly", "afterwards"})
+_STEP_CONNECTORS: Final = frozenset({"then", "after", "afterwards", "finally", "lastly"})
+_NAMING: Final = OBJECT_WORDS | {"it"}
+_DROPPED: Final = "\0"  # where a word the model never saw was
 
 Synonyms = Callable[[str, Sequence[str]], str | None]
 """Nearest known word to an unknown one (or None): ``(word, known words) -> word``."""
@@ -132,42 +135,86 @@ class FrontEnd:
             new, how = self.word(tok)
             if how != "known":
                 changes.append(f"{tok} -> {new}" if new is not None else f"{tok} dropped")
-            if new is not None:
-                sentences[-1].append(new)
+            sentences[-1].append(new if new is not None else _DROPPED)
         kept: list[list[str]] = []
         for s in sentences:
-            words = [t for t in s if t != ","]
+            words = [t for t in s if t not in (",", _DROPPED)]
             if not words:
                 continue
             if not OBJECT_WORDS.intersection(words):
                 changes.append(f"sentence {' '.join(words)!r} dropped: it names no object")
                 continue
-            kept.append(self._unfront(s, changes))
+            kept.append(self._unfront(_without_filler_chunks(s, changes), changes))
         text_out = " . ".join(" ".join(_tidy(s)) for s in kept)
         return Reading(f"{text_out} ." if text_out else "", tuple(changes))
 
     def _unfront(self, sentence: list[str], changes: list[str]) -> list[str]:
-        """A clause that begins with a preposition and holds a comma: the part before the
-        comma moved to the clause's end."""
+        """A clause that begins with a preposition and a phrase naming an object, then a
+        comma: that phrase moved to the clause's end (the sentence's end or the next step
+        connector)."""
         out = list(sentence)
-        starts = [0] + [i + 1 for i, t in enumerate(out[:-1]) if t in _CLAUSE_STARTS]
+        starts = [0] + [i + 1 for i, t in enumerate(out[:-1])
+                        if t in _CLAUSE_STARTS or (t == "that" and i > 0 and out[i - 1] == "after")]
         for start in starts:
+            while start < len(out) and (out[start] == "," or (
+                    out[start] in (*_CLAUSE_STARTS, "next")
+                    and start + 1 < len(out) and out[start + 1] == ",")):
+                start += 1
             if start >= len(out) or out[start] not in PREPOSITIONS:
                 continue
             try:
                 comma = out.index(",", start)
             except ValueError:
                 continue
-            end = next((i for i in range(comma + 1, len(out))
-                        if out[i] == "," or (out[i] in _CLAUSE_STARTS and i > comma + 1)),
-                       len(out))
+            end = _step_end(out, comma + 2)
+            while end > comma + 1 and out[end - 1] in (",", "and"):
+                end -= 1
             fronted, clause = out[start:comma], out[comma + 1:end]
-            if not OBJECT_WORDS.intersection(fronted) or not clause:
+            if not _NAMING.intersection(fronted) or not clause:
                 continue
             changes.append(f"fronted {' '.join(fronted)!r} moved after its clause")
             out = out[:start] + clause + fronted + out[end:]
             break
         return out
+
+
+def _step_end(tokens: list[str], begin: int) -> int:
+    """Where the step that goes on at ``begin`` ends: at a step connector ("then",
+    "afterwards", ...; not at "then put it", the step's own second verb), or at an "and"
+    that starts a clause of its own, not one inside a noun phrase ("and is cyan", "and
+    blue in colour") nor the step's own second verb ("and put it down")."""
+    for i in range(begin, len(tokens)):
+        t = tokens[i]
+        if t in _STEP_CONNECTORS and "it" not in tokens[i + 1:i + 4]:
+            return i
+        if t == "and":
+            after = tokens[i + 1:i + 4]
+            if after and after[0] not in ("is", "in", "has", *COLOURS) and "it" not in after:
+                return i
+    return len(tokens)
+
+
+def _without_filler_chunks(sentence: list[str], changes: list[str]) -> list[str]:
+    """The sentence without its comma-separated chunks that name no object and held a word
+    the model never saw ("I reckon", "when you have a moment"): they carry nothing it can
+    use. The marks of dropped words go too."""
+    chunks: list[list[str]] = [[]]
+    for t in sentence:
+        if t == ",":
+            chunks.append([])
+        else:
+            chunks[-1].append(t)
+    kept: list[str] = []
+    for chunk in chunks:
+        if _DROPPED in chunk and not _NAMING.intersection(chunk):
+            words = [t for t in chunk if t != _DROPPED]
+            if words:
+                changes.append(f"chunk {' '.join(words)!r} dropped: a filler")
+            continue
+        if kept:
+            kept.append(",")
+        kept.extend(t for t in chunk if t != _DROPPED)
+    return kept
 
 
 def _tidy(tokens: list[str]) -> list[str]:

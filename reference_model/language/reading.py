@@ -33,8 +33,8 @@ class LanguageSettings:
     typo_edits: int = 2  # edits allowed in a typo of a word of typo_long letters or more
     typo_long: int = 6
     typo_min: int = 3  # shorter words are never corrected
-    synonyms: bool = False  # nearest known word by sentence embedding (language extra)
-    synonym_threshold: float = 0.5
+    synonyms: bool = True  # nearest known word by sentence embedding (language extra)
+    synonym_threshold: float = 0.6
     synonym_margin: float = 0.0
 
 
