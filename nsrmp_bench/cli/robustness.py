@@ -19,7 +19,7 @@ import argparse
 from pathlib import Path
 
 from nsrmp_bench.cli.numbers import non_negative_int
-from nsrmp_bench.robustness.kinds import CONTROLS, KINDS
+from nsrmp_bench.robustness.kinds import KINDS
 from nsrmp_bench.storage.atomic import output_dir
 
 __all__ = ["add_arguments", "run"]
@@ -56,11 +56,11 @@ def render(suite: object) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    from nsrmp_bench.robustness.suite import Suite
+    from nsrmp_bench.results.robustness_table import Suite
 
     assert isinstance(suite, Suite)
-    kinds = [k for k in suite.kinds if k not in CONTROLS]
-    controls = [k for k in suite.kinds if k in CONTROLS]
+    controls = suite.controls
+    kinds = [k for k in suite.kinds if k not in controls]
     t = Table(title=f"{suite.split}: paired IoU-M difference to the unperturbed part "
               "[95% CI]; controls: IoU-M", title_justify="left")
     for col in ("model", "IoU-M", *kinds, *controls):

@@ -21,7 +21,7 @@ from nsrmp_bench._optional import require
 from nsrmp_bench.leaderboard import Entry, build, load_entries
 from nsrmp_bench.results.figures import draw_figures
 from nsrmp_bench.results.paper_tables import write_report
-from nsrmp_bench.results.site import read_boards, write_site
+from nsrmp_bench.results.site import read_boards, read_robustness, write_site
 from nsrmp_bench.results.summary import Results, Run
 from nsrmp_bench.scoring.result import ScoreResult
 
@@ -36,7 +36,8 @@ def write_site_files(results: Results, entries_dir: str | os.PathLike[str],
     results.write(site)
     written = draw_figures(results, site / "figures", none_ok=True)
     written += list(write_report(results, site, paper=True))
-    written += write_site(read_boards(boards_dir), load_entries(entries_dir), site, results)
+    written += write_site(read_boards(boards_dir), load_entries(entries_dir), site, results,
+                          read_robustness(boards_dir))
     return written
 
 

@@ -49,12 +49,13 @@ from nsrmp_bench.results.figures import CATEGORY_BARS, FIGURES, caption, figure_
 from nsrmp_bench.results.model_cards import CARD_FIELDS, NOT_STATED, model_card
 from nsrmp_bench.results.protocols import PROTOCOLS, Protocol, is_reference, protocol_of
 from nsrmp_bench.results.ranks import RANK_RULE, shared_ranks
+from nsrmp_bench.results.robustness_table import Suite, read_suite
 from nsrmp_bench.results.summary import Results
 from nsrmp_bench.scoring.metrics import METRICS
 from nsrmp_bench.storage.atomic import atomic_write_text
 
-__all__ = ["ASSETS", "RANK_RULE", "is_test_board", "read_boards", "shared_ranks",
-           "write_site"]
+__all__ = ["ASSETS", "RANK_RULE", "ROBUSTNESS_DIR", "is_test_board", "read_boards",
+           "read_robustness", "shared_ranks", "write_site"]
 
 ASSETS = ("site.css", "site.js")
 _LABELS = {m.name: m.label for m in METRICS}
@@ -385,7 +386,8 @@ def _board_rows(title: str, boards: Mapping[str, list[dict[str, Any]]], site: _S
     return [f"<h2>{_e(title)}</h2>", *out] if title else out
 
 
-def _index_page(boards: Mapping[str, list[dict[str, Any]]], site: _Site) -> str:
+def _index_page(boards: Mapping[str, list[dict[str, Any]]], site: _Site,
+                robustness: bool = False) -> str:
     official = {s: r for s, r in boards.items() if not is_test_board(s)}
     tests = {s: r for s, r in boards.items() if is_test_board(s)}
     body = [
@@ -399,6 +401,11 @@ def _index_page(boards: Mapping[str, list[dict[str, Any]]], site: _Site) -> str:
     ]
     if official:
         body += _board_rows("", official, site, "boards")
+    if robustness:
+        body += ["<h2>Robustness</h2>",
+                 '<p>Each model on perturbed instructions (polite, filler, typo, synonym, '
+                 'reorder, case) and the blind and shuffled controls: '
+                 '<a href="robustness.html">the robustness boards</a>.</p>']
     figures = _figures([a.name for a in FIGURES] + ["iou_m_by_category"], site.root,
                        site.root)
     if figures:
@@ -419,8 +426,50 @@ def _index_page(boards: Mapping[str, list[dict[str, Any]]], site: _Site) -> str:
     return _page("nsrmp-bench leaderboards", body)
 
 
+ROBUSTNESS_DIR = "robustness"
+"""The robustness boards' folder in the boards folder (``nsrmp-bench robustness --board``)."""
+
+
+def read_robustness(boards_dir: str | os.PathLike[str]) -> list[Suite]:
+    """The robustness boards committed beside the boards (``robustness/*.json``)."""
+    folder = Path(boards_dir) / ROBUSTNESS_DIR
+    return [read_suite(p) for p in sorted(folder.glob("*.json"))]
+
+
+def _robustness_page(suites: Sequence[Suite], splits: Sequence[str]) -> str:
+    body = [_nav(splits), "<h1>Robustness</h1>",
+            '<p class="note">Each model on perturbed copies of a test part (same scenes, '
+            "ids and gold; other instruction texts): per kind, the paired IoU-M difference "
+            "to the same model on the unperturbed part with its 95% interval; the controls "
+            "(blind: an instruction that asks for nothing; shuffled: another episode's) as "
+            "IoU-M. Made by <code>nsrmp-bench robustness ... --board "
+            "leaderboards/robustness</code> with the suite's seed and word lists.</p>"]
+    for suite in suites:
+        controls = suite.controls
+        kinds = [k for k in suite.kinds if k not in controls]
+        head = "".join(f"<th>{_e(h)}</th>" for h in ("model", "IoU-M", *kinds, *controls))
+        rows = []
+        for source in suite.sources:
+            first = next(r for r in suite.rows if r.source == source)
+            cells = [f'<td class="text">{_model_name(source)}</td>',
+                     f"<td>{first.clean_iou_m:.3f}</td>"]
+            for k in kinds:
+                r = suite.row(source, k)
+                cells.append("<td></td>" if r is None else
+                             f'<td data-value="{r.diff:.4f}">{r.diff:+.3f} '
+                             f"[{r.diff_low:+.3f}, {r.diff_high:+.3f}]</td>")
+            for k in controls:
+                r = suite.row(source, k)
+                cells.append("<td></td>" if r is None else f"<td>{r.iou_m:.3f}</td>")
+            rows.append("<tr>" + "".join(cells) + "</tr>")
+        body += [f"<h2>{_e(suite.split)} (suite seed {suite.seed})</h2>", "<table>",
+                 f"<thead><tr>{head}</tr></thead>", "<tbody>", *rows, "</tbody>", "</table>"]
+    return _page("Robustness", body)
+
+
 def write_site(boards: Mapping[str, list[dict[str, Any]]], entries: Sequence[Entry],
-               site_dir: str | os.PathLike[str], results: Results | None = None) -> list[Path]:
+               site_dir: str | os.PathLike[str], results: Results | None = None,
+               robustness: Sequence[Suite] = ()) -> list[Path]:
     """Write the pages and assets of ``boards`` into ``site_dir``; returns the pages.
 
     ``results`` (the entries' scored runs) gives each row's protocol; without it the
@@ -439,7 +488,10 @@ def write_site(boards: Mapping[str, list[dict[str, Any]]], entries: Sequence[Ent
     ordered = {s: boards[s] for s in splits}
     site = _Site(root, entries, results, splits)
     pages = [root / "index.html"]
-    atomic_write_text(pages[0], _index_page(ordered, site))
+    atomic_write_text(pages[0], _index_page(ordered, site, bool(robustness)))
+    if robustness:
+        pages.append(atomic_write_text(root / "robustness.html",
+                                       _robustness_page(robustness, splits)))
     for split in splits:
         page = root / f"{_stem(split)}.html"
         atomic_write_text(page, _board_page(split, ordered[split], site))

@@ -14,17 +14,14 @@ its row is 1.000 everywhere and shows that a perturbation left the gold untouche
 
 from __future__ import annotations
 
-import json
-import math
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 from nsrmp_bench.baselines.registry import run_baseline
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.results.evaluate import Runners, Source, resolve_source
+from nsrmp_bench.results.robustness_table import KindRow, Suite
 from nsrmp_bench.robustness.kinds import CONTROLS, KINDS, lexicon
 from nsrmp_bench.robustness.part import perturb_part
 from nsrmp_bench.scoring.compare import compare
@@ -33,110 +30,15 @@ from nsrmp_bench.scoring.scorer import score
 from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.manifest import MANIFEST_NAME, read_manifest
 
-__all__ = ["CLEAN", "SUITE_FORMAT", "SUITE_SEED", "KindRow", "Suite", "read_suite",
-           "run_suite"]
+__all__ = ["CLEAN", "SUITE_SEED", "run_suite"]
 
 SUITE_SEED = 0
 """The suite's test seed: the boards are made with it; models never train or select on
 the parts it makes (augmentation uses other seeds and another lexicon)."""
 CLEAN = "none"
 """The name of the unperturbed part in the suite's files."""
-SUITE_FORMAT = "nsrmp-bench-robustness"
 
 Say = Callable[[str], None]
-
-
-@dataclass(frozen=True)
-class KindRow:
-    """One source on one kind, against the same source on the unperturbed part."""
-
-    source: str
-    kind: str
-    control: bool
-    changed: int
-    count: int
-    iou_m: float
-    iou_m_low: float
-    iou_m_high: float
-    clean_iou_m: float
-    diff: float
-    diff_low: float
-    diff_high: float
-    p_value: float
-    program_exact: float
-    clean_program_exact: float
-    success: float
-
-
-@dataclass(frozen=True)
-class Suite:
-    """The suite's table on one part."""
-
-    split: str
-    seed: int
-    source_root_hash: str
-    rows: tuple[KindRow, ...]
-
-    @property
-    def sources(self) -> list[str]:
-        """The sources, in the order they were given."""
-        return list(dict.fromkeys(r.source for r in self.rows))
-
-    @property
-    def kinds(self) -> list[str]:
-        """The kinds, in the suite's order."""
-        present = {r.kind for r in self.rows}
-        return [k for k in KINDS if k in present]
-
-    def row(self, source: str, kind: str) -> KindRow | None:
-        """The row of ``source`` on ``kind``, if run."""
-        return next((r for r in self.rows if r.source == source and r.kind == kind), None)
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-able form (``robustness.json``)."""
-        return {"format": SUITE_FORMAT, "split": self.split, "seed": self.seed,
-                "source_root_hash": self.source_root_hash,
-                "rows": [_finite(asdict(r)) for r in self.rows]}
-
-    def write(self, path: str | os.PathLike[str]) -> Path:
-        """Write the table as JSON (atomically)."""
-        text = json.dumps(self.to_dict(), indent=1, sort_keys=True) + "\n"
-        return atomic_write_text(path, text)
-
-    def markdown(self) -> str:
-        """The board: a row per source, a column per kind (paired IoU-M difference [95%
-        interval]), the controls apart (their IoU-M)."""
-        kinds = [k for k in self.kinds if k not in CONTROLS]
-        controls = [k for k in self.kinds if k in CONTROLS]
-        head = ["source", "IoU-M", *kinds, *(f"{c} (IoU-M)" for c in controls)]
-        lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-        for s in self.sources:
-            any_row = next(r for r in self.rows if r.source == s)
-            cells = [s, f"{any_row.clean_iou_m:.3f}"]
-            for k in kinds:
-                r = self.row(s, k)
-                cells.append("" if r is None else
-                             f"{r.diff:+.3f} [{r.diff_low:+.3f}, {r.diff_high:+.3f}]")
-            for k in controls:
-                r = self.row(s, k)
-                cells.append("" if r is None else f"{r.iou_m:.3f}")
-            lines.append("| " + " | ".join(cells) + " |")
-        return "\n".join(lines) + "\n"
-
-
-def _finite(row: dict[str, Any]) -> dict[str, Any]:
-    return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()}
-
-
-def read_suite(path: str | os.PathLike[str]) -> Suite:
-    """Read a ``robustness.json``."""
-    data = json.loads(Path(path).read_text("utf-8"))
-    if data.get("format") != SUITE_FORMAT:
-        msg = f"{path} is not a robustness table (format {data.get('format')!r})"
-        raise InvalidArgument(msg)
-    rows = tuple(KindRow(**{k: (math.nan if v is None else v)  # type: ignore[arg-type]
-                            for k, v in r.items()}) for r in data["rows"])
-    return Suite(str(data["split"]), int(data["seed"]), str(data["source_root_hash"]), rows)
 
 
 def _part(data: Path, out: Path, kind: str, seed: int, words: str, say: Say) -> Path:

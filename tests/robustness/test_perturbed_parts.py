@@ -10,9 +10,10 @@ import pytest
 
 import nsrmp_bench
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.results.robustness_table import read_suite
 from nsrmp_bench.robustness.kinds import KINDS
 from nsrmp_bench.robustness.part import RECORDS_NAME, perturb_part, read_records
-from nsrmp_bench.robustness.suite import read_suite, run_suite
+from nsrmp_bench.robustness.suite import run_suite
 from nsrmp_bench.storage.manifest import read_manifest
 from nsrmp_bench.verify import verify
 

@@ -1,0 +1,120 @@
+"""The robustness suite's table: one row per source and perturbation kind, read and
+written as ``robustness.json`` and shown as a board (Markdown here, HTML on the site).
+
+Made by :func:`nsrmp_bench.robustness.suite.run_suite`; every figure is the public
+scorer's (IoU-M with its bootstrap interval) or ``compare``'s (the paired difference to the
+same source on the unperturbed part, its interval and p-value).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.storage.atomic import atomic_write_text
+
+__all__ = ["SUITE_FORMAT", "KindRow", "Suite", "read_suite"]
+
+SUITE_FORMAT = "nsrmp-bench-robustness"
+
+
+@dataclass(frozen=True)
+class KindRow:
+    """One source on one kind, against the same source on the unperturbed part."""
+
+    source: str
+    kind: str
+    control: bool
+    changed: int
+    count: int
+    iou_m: float
+    iou_m_low: float
+    iou_m_high: float
+    clean_iou_m: float
+    diff: float
+    diff_low: float
+    diff_high: float
+    p_value: float
+    program_exact: float
+    clean_program_exact: float
+    success: float
+
+
+@dataclass(frozen=True)
+class Suite:
+    """The suite's table on one part."""
+
+    split: str
+    seed: int
+    source_root_hash: str
+    rows: tuple[KindRow, ...]
+
+    @property
+    def sources(self) -> list[str]:
+        """The sources, in the order they were given."""
+        return list(dict.fromkeys(r.source for r in self.rows))
+
+    @property
+    def kinds(self) -> list[str]:
+        """The kinds, in the order the suite ran them."""
+        return list(dict.fromkeys(r.kind for r in self.rows))
+
+    @property
+    def controls(self) -> list[str]:
+        """The control kinds among :attr:`kinds` (blind, shuffled)."""
+        return list(dict.fromkeys(r.kind for r in self.rows if r.control))
+
+    def row(self, source: str, kind: str) -> KindRow | None:
+        """The row of ``source`` on ``kind``, if run."""
+        return next((r for r in self.rows if r.source == source and r.kind == kind), None)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able form (``robustness.json``)."""
+        return {"format": SUITE_FORMAT, "split": self.split, "seed": self.seed,
+                "source_root_hash": self.source_root_hash,
+                "rows": [_finite(asdict(r)) for r in self.rows]}
+
+    def write(self, path: str | os.PathLike[str]) -> Path:
+        """Write the table as JSON (atomically)."""
+        text = json.dumps(self.to_dict(), indent=1, sort_keys=True) + "\n"
+        return atomic_write_text(path, text)
+
+    def markdown(self) -> str:
+        """The board: a row per source, a column per kind (paired IoU-M difference [95%
+        interval]), the controls apart (their IoU-M)."""
+        controls = self.controls
+        kinds = [k for k in self.kinds if k not in controls]
+        head = ["source", "IoU-M", *kinds, *(f"{c} (IoU-M)" for c in controls)]
+        lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for s in self.sources:
+            any_row = next(r for r in self.rows if r.source == s)
+            cells = [s, f"{any_row.clean_iou_m:.3f}"]
+            for k in kinds:
+                r = self.row(s, k)
+                cells.append("" if r is None else
+                             f"{r.diff:+.3f} [{r.diff_low:+.3f}, {r.diff_high:+.3f}]")
+            for k in controls:
+                r = self.row(s, k)
+                cells.append("" if r is None else f"{r.iou_m:.3f}")
+            lines.append("| " + " | ".join(cells) + " |")
+        return "\n".join(lines) + "\n"
+
+
+def _finite(row: dict[str, Any]) -> dict[str, Any]:
+    return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()}
+
+
+def read_suite(path: str | os.PathLike[str]) -> Suite:
+    """Read a ``robustness.json``."""
+    data = json.loads(Path(path).read_text("utf-8"))
+    if data.get("format") != SUITE_FORMAT:
+        msg = f"{path} is not a robustness table (format {data.get('format')!r})"
+        raise InvalidArgument(msg)
+    rows = tuple(KindRow(**{k: (math.nan if v is None else v)  # type: ignore[arg-type]
+                            for k, v in r.items()}) for r in data["rows"])
+    return Suite(str(data["split"]), int(data["seed"]), str(data["source_root_hash"]), rows)
