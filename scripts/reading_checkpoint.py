@@ -1,17 +1,23 @@
 """Write a v3 checkpoint: a v2 checkpoint's networks and vocabulary with the language front
 end's settings (``nsrm-v2`` -> ``nsrm-v3``, ``nmn-v2`` -> ``nmn-v3``).
 
-    python scripts/reading_checkpoint.py nsrm-v3 [--from PATH] [--set KEY=VALUE ...] --out PATH
+    python scripts/reading_checkpoint.py nsrm-v3 [--from PATH] [--set KEY=VALUE ...]
+        [--selection DIR/robustness.json] --out reference_model/checkpoints/nsrm-v3.pt
 
 The networks are not retrained: the v3 models are their v2 networks behind the front end
 (``reference_model/language``), whose settings are config fields (``--set``, e.g.
-``synonyms=true``). Without ``--from`` the shipped v2 checkpoint is read. The same input
-writes the same bytes.
+``synonyms=true``). Without ``--from`` the shipped v2 checkpoint, card and log are read.
+Beside the checkpoint it writes the card (``<id>.card.json``: the v2 card with the v3
+config) and the log (``<id>.log.jsonl``: the v2 networks' training log, then one
+``selection`` line per kind of the development suite given with ``--selection``, the table
+``nsrmp-bench robustness MODEL --data data/paper-v2/val --words dev --seed 1001`` wrote).
+The same input writes the same bytes.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 from nsrmp_bench.reference_model.checkpoints import (
@@ -29,6 +35,8 @@ def main() -> None:
     parser.add_argument("model", choices=sorted(SOURCES))
     parser.add_argument("--from", dest="source", type=Path, default=None)
     parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE")
+    parser.add_argument("--selection", type=Path, default=None,
+                        help="the development suite's robustness.json (selection lines)")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     source_id = SOURCES[args.model]
@@ -38,7 +46,25 @@ def main() -> None:
     extra = {**payload.get("extra", {}), "networks_of": source_id}
     save_checkpoint(args.out, args.model, config.to_dict(), list(payload["vocab"]),
                     payload["state"], extra)
-    print(f"{args.model}: wrote {args.out} (networks of {source_id})")
+    shipped = shipped_checkpoint(source_id).parent
+    card = json.loads((shipped / f"{source_id}.card.json").read_text("utf-8"))
+    card.update(model=args.model, config=config.to_dict(), networks_of=source_id,
+                front_end="the language front end (reference_model/language) with the "
+                "config's settings, selected on paper-v2/val perturbed with the development "
+                "word lists (seed 1001)")
+    stem = args.out.with_suffix("")
+    stem.with_suffix(".card.json").write_text(json.dumps(card, indent=1, sort_keys=True) + "\n")
+    log = (shipped / f"{source_id}.log.jsonl").read_text("utf-8")
+    if args.selection is not None:
+        table = json.loads(args.selection.read_text("utf-8"))
+        rows = [r for r in table["rows"] if r["source"] == args.model]
+        log += "".join(json.dumps({
+            "stage": "selection", "part": f"{table['split']} (development word lists, seed "
+            f"{table['seed']})", "kind": r["kind"], "val_iou_m": r["iou_m"],
+            "paired_diff": r["diff"], "diff_low": r["diff_low"], "diff_high": r["diff_high"],
+        }) + "\n" for r in rows)
+    stem.with_suffix(".log.jsonl").write_text(log)
+    print(f"{args.model}: wrote {args.out}, its card and log (networks of {source_id})")
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ import colorsys
 from functools import cache
 from typing import Final
 
+from nsrmp_bench._optional import require
 from nsrmp_bench.vocabulary import COLOUR_RGBA
 
 __all__ = ["MAX_HUE_DEGREES", "colour_of_name"]
@@ -53,7 +54,7 @@ def _nearest(rgb: tuple[float, float, float]) -> str | None:
 def _table() -> dict[str, tuple[float, float, float]]:
     """One-word colour names -> RGB (CSS4 first: where both tables name a colour, the CSS
     one is the plainer sense)."""
-    from matplotlib import colors
+    colors = require("matplotlib.colors")
 
     out: dict[str, tuple[float, float, float]] = {}
     for name, hexa in colors.XKCD_COLORS.items():

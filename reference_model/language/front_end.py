@@ -34,9 +34,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Final
 
-from rapidfuzz.distance import OSA
-from rapidfuzz.process import extract
-
+from nsrmp_bench._optional import require
 from nsrmp_bench.reference_model.language.colour_names import colour_of_name
 from nsrmp_bench.vocabulary import COLOURS, SHAPES
 
@@ -80,6 +78,11 @@ class FrontEnd:
     def __init__(self, known: Iterable[str], *, typo_edits: int = 2, typo_long: int = 6,
                  typo_min: int = 3, synonyms: Synonyms | None = None,
                  english: frozenset[str] = frozenset()) -> None:
+        require("rapidfuzz")  # the language extra
+        from rapidfuzz.distance import OSA
+        from rapidfuzz.process import extract
+
+        self._distance, self._extract = OSA.distance, extract
         self.known = frozenset(w for w in known if w.isalpha())
         self._choices = sorted(w for w in self.known if len(w) >= 2)
         self.typo_edits, self.typo_long, self.typo_min = typo_edits, typo_long, typo_min
@@ -107,8 +110,8 @@ class FrontEnd:
                 return stem, "stem"
         if len(w) >= self.typo_min and w not in self.english:
             limit = self.typo_edits if len(w) >= self.typo_long else 1
-            found = extract(w, self._choices, scorer=OSA.distance, score_cutoff=limit,
-                            limit=None)
+            found = self._extract(w, self._choices, scorer=self._distance,
+                                  score_cutoff=limit, limit=None)
             if found:
                 best = min(found, key=lambda m: (m[1], m[0][:1] != w[:1],
                                                  m[0] not in OBJECT_WORDS,
