@@ -7,9 +7,9 @@ that is called at the start of every episode. Named policies:
 * ``oracle``: the gold grounded program, one DSL step per move, then done. It reads the
   gold program from the environment (privileged: the upper bound, as ``oracle-v1``).
 * ``noop``: says done at once (the floor).
-* ``nsrm`` / ``nmn`` (the v2 models; or a model id such as ``nsrm-v1``): a shipped program
-  model (torch extra). It reads the instruction, the initial RGB-D and the gold boxes (so the
-  environment needs ``boxes="gold"``; ``rollout`` sets it) once, predicts its grounded
+* ``nsrm`` / ``nmn`` (the latest versions, v3; or a model id such as ``nsrm-v1``): a
+  shipped program model (torch extra). It reads the instruction, the initial RGB-D and
+  the gold boxes (so the environment needs ``boxes="gold"``; ``rollout`` sets it) once, predicts its grounded
   program, and issues it one DSL step per move; each step's target is computed by the
   environment on the real state after the previous move (closed-loop execution, the
   program is not re-planned).
@@ -46,7 +46,8 @@ from nsrmp_bench.errors import InvalidArgument
 __all__ = ["BOX_READING", "DENSE_POLICIES", "NAMED_POLICIES", "NoopPolicy", "OraclePolicy",
            "Policy", "ProgramModelPolicy", "check_policy", "make_policy"]
 
-BOX_READING = frozenset({"nsrm", "nsrm-v1", "nsrm-v2", "nmn", "nmn-v1", "nmn-v2"})
+BOX_READING = frozenset({"nsrm", "nsrm-v1", "nsrm-v2", "nsrm-v3", "nmn", "nmn-v1", "nmn-v2",
+                         "nmn-v3"})
 """Named policies that read the gold boxes (the environment needs ``boxes="gold"``)."""
 
 
@@ -135,9 +136,11 @@ NAMED_POLICIES: dict[str, Callable[[Any], Policy]] = {
     "nsrm": lambda env: ProgramModelPolicy(env, "nsrm"),  # the registry's latest version
     "nsrm-v1": lambda env: ProgramModelPolicy(env, "nsrm-v1"),
     "nsrm-v2": lambda env: ProgramModelPolicy(env, "nsrm-v2"),
+    "nsrm-v3": lambda env: ProgramModelPolicy(env, "nsrm-v3"),
     "nmn": lambda env: ProgramModelPolicy(env, "nmn"),
     "nmn-v1": lambda env: ProgramModelPolicy(env, "nmn-v1"),
     "nmn-v2": lambda env: ProgramModelPolicy(env, "nmn-v2"),
+    "nmn-v3": lambda env: ProgramModelPolicy(env, "nmn-v3"),
     **{name: partial(_dense, name) for name in sorted(DENSE_POLICIES)},
 }
 """Policy name -> factory taking the environment."""
