@@ -10,9 +10,9 @@ that is called at the start of every episode. Named policies:
 * ``nsrm`` / ``nmn`` (the latest versions, v3; or a model id such as ``nsrm-v1``): a
   shipped program model (torch extra). It reads the instruction, the initial RGB-D and
   the gold boxes (so the environment needs ``boxes="gold"``; ``rollout`` sets it) once,
-  predicts its grounded program, and issues it one DSL step per move; each step's target is computed by the
-  environment on the real state after the previous move (closed-loop execution, the
-  program is not re-planned).
+  predicts its grounded program, and issues it one DSL step per move; each step's target
+  is computed by the environment on the real state after the previous move (closed-loop
+  execution, the program is not re-planned).
 * ``dense`` (``dense-v2``; or ``dense-v1``, ``dense5x``/``dense5x-v2``, ``dense5x-v1``):
   the shipped dense baseline, a pick and a place point per step from the current
   observation, done when its move would change nothing
