@@ -22,6 +22,7 @@ figures do not depend on where they ran.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -50,6 +51,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--splits", nargs="+", default=None, metavar="SPLIT_ID",
                         help="official split ids to run models and baselines on "
                              "(default: all official test parts found)")
+    parser.add_argument("--robustness", action="store_true",
+                        help="also run the robustness suite (every perturbation kind and the "
+                        "controls) for the model and baseline ids on each test part: "
+                        "OUT/robustness/<split>-<part>/, its tables in summary.json")
     add_engine_arguments(parser, workers=2)
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
@@ -114,7 +119,36 @@ def run(args: argparse.Namespace) -> int:
         results = evaluate(args.sources, args.data_root, args.out, generate=args.generate,
                            splits=args.splits, workers=args.workers, engine=engine, say=say,
                            runners=run_with)
+    if args.robustness:
+        results = _with_robustness(results, args, run_with, say)
     if not args.quiet:
         render_table(results)
         print(f"wrote {args.out / 'summary.json'} and {len(results.splits)} CSV files")
     return 0
+
+
+def _with_robustness(results: Results, args: argparse.Namespace, run_with: Runners,
+                     say: Callable[[str], None] | None) -> Results:
+    """The robustness suite of the model and baseline sources on every part evaluated,
+    added to the summary (and printed)."""
+    import dataclasses
+
+    from nsrmp_bench.cli.robustness import render
+    from nsrmp_bench.robustness.suite import run_suite
+    from nsrmp_bench.storage.split_root import find_part
+
+    ids = [s for s in args.sources if resolve_source(s, run_with.models).kind != "file"]
+    if not ids:
+        return results
+    suites = []
+    for split_part in results.splits:
+        data = find_part(args.data_root, split_part)
+        if data is None:
+            continue
+        out = args.out / "robustness" / split_part.replace("/", "-")
+        suites.append(run_suite(ids, data, out, runners=run_with, say=say))
+        if say is not None:
+            render(suites[-1])
+    results = dataclasses.replace(results, robustness=tuple(suites))
+    results.write(args.out)
+    return results

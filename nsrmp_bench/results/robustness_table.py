@@ -18,7 +18,7 @@ from typing import Any
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage.atomic import atomic_write_text
 
-__all__ = ["SUITE_FORMAT", "KindRow", "Suite", "read_suite"]
+__all__ = ["SUITE_FORMAT", "KindRow", "Suite", "read_suite", "suite_from_dict"]
 
 SUITE_FORMAT = "nsrmp-bench-robustness"
 
@@ -109,12 +109,16 @@ def _finite(row: dict[str, Any]) -> dict[str, Any]:
     return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()}
 
 
-def read_suite(path: str | os.PathLike[str]) -> Suite:
-    """Read a ``robustness.json``."""
-    data = json.loads(Path(path).read_text("utf-8"))
+def suite_from_dict(data: dict[str, Any], where: str) -> Suite:
+    """Inverse of :meth:`Suite.to_dict`."""
     if data.get("format") != SUITE_FORMAT:
-        msg = f"{path} is not a robustness table (format {data.get('format')!r})"
+        msg = f"{where} is not a robustness table (format {data.get('format')!r})"
         raise InvalidArgument(msg)
     rows = tuple(KindRow(**{k: (math.nan if v is None else v)  # type: ignore[arg-type]
                             for k, v in r.items()}) for r in data["rows"])
     return Suite(str(data["split"]), int(data["seed"]), str(data["source_root_hash"]), rows)
+
+
+def read_suite(path: str | os.PathLike[str]) -> Suite:
+    """Read a ``robustness.json``."""
+    return suite_from_dict(json.loads(Path(path).read_text("utf-8")), str(path))

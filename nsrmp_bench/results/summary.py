@@ -22,6 +22,7 @@ from typing import Any
 
 from nsrmp_bench.canonical import canonical_json
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.results.robustness_table import Suite, suite_from_dict
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.layout import check_schema_version
@@ -165,9 +166,11 @@ def _nan(v: Any) -> bool:
 
 @dataclass(frozen=True)
 class Results:
-    """Every run of one evaluation (or of the leaderboard), in a fixed order."""
+    """Every run of one evaluation (or of the leaderboard), in a fixed order; with
+    ``evaluate --robustness`` also the robustness suite's table of each part."""
 
     runs: tuple[Run, ...]
+    robustness: tuple[Suite, ...] = ()
 
     def __post_init__(self) -> None:
         seen: set[tuple[str, str]] = set()
@@ -198,8 +201,11 @@ class Results:
 
     def to_json(self) -> dict[str, Any]:
         """The summary's JSON object."""
-        return {"format": FORMAT, "schema_version": SCHEMA_VERSION,
-                "runs": [r.to_json() for r in self.runs]}
+        out: dict[str, Any] = {"format": FORMAT, "schema_version": SCHEMA_VERSION,
+                               "runs": [r.to_json() for r in self.runs]}
+        if self.robustness:
+            out["robustness"] = [s.to_dict() for s in self.robustness]
+        return out
 
     def write(self, folder: str | os.PathLike[str]) -> Path:
         """Write ``folder/summary.json`` (canonical JSON: the same runs, the same bytes)."""
@@ -229,7 +235,8 @@ class Results:
         check_schema_version(data.get("schema_version"), str(path),
                              supported=int(SCHEMA_VERSION.split(".")[0]))
         try:
-            return cls(tuple(Run.from_json(r) for r in data["runs"]))
+            return cls(tuple(Run.from_json(r) for r in data["runs"]),
+                       tuple(suite_from_dict(s, str(path)) for s in data.get("robustness", [])))
         except (KeyError, TypeError, ValueError) as exc:
             msg = f"{path}: a run lacks a field or has a bad value ({exc!r}); rerun evaluate"
             raise InvalidArgument(msg) from exc

@@ -131,6 +131,7 @@ def run_suite(
             tell(f"{source.name} on {kind}: IoU-M {result.headline:.3f}, paired "
                  f"{d['diff']:+.3f} [{d['ci_low']:+.3f}, {d['ci_high']:+.3f}]")
     suite = Suite(manifest.split, seed, manifest.root_hash, tuple(rows))
+    out_p.mkdir(parents=True, exist_ok=True)
     suite.write(out_p / "robustness.json")
     atomic_write_text(out_p / "robustness.md", suite.markdown())
     return suite

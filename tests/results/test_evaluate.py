@@ -112,3 +112,24 @@ def test_evaluate_on_dask_gives_the_local_figures(tmp_path: Path) -> None:
     for name in ("smoke-v2-test--oracle-v1.jsonl", "smoke-v2-test--random-v1.jsonl"):
         assert ((tmp_path / "dask" / "predictions" / name).read_bytes()
                 == (tmp_path / "local" / "predictions" / name).read_bytes())
+
+
+@pytest.mark.sim
+def test_evaluate_with_the_robustness_suite_keeps_its_tables(smoke_v2_root: Path,
+                                                             tmp_path: Path) -> None:
+    """``--robustness``: the suite for the id sources on each part, in summary.json."""
+    from nsrmp_bench.cli.main import main
+    from nsrmp_bench.results.summary import Results
+
+    root = tmp_path / "data"
+    root.mkdir()
+    (root / "smoke-v2").symlink_to(smoke_v2_root, target_is_directory=True)
+    out = tmp_path / "results"
+    assert main(["evaluate", "noop", "--data-root", str(root), "--out", str(out),
+                 "--splits", "smoke-v2", "--workers", "1", "--robustness", "--quiet"]) == 0
+    results = Results.read(out)
+    (suite,) = results.robustness
+    assert suite.split == "smoke-v2/test" and len(suite.kinds) == 8
+    assert all(r.source == "noop-v1" and r.diff == 0.0 for r in suite.rows)
+    assert (out / "robustness" / "smoke-v2-test" / "robustness.json").is_file()
+    assert Results.read(out).to_json() == results.to_json()
