@@ -150,7 +150,7 @@ class PartReport:
 
 
 def _command(run: OriginalRun) -> str:
-    """The run's command line, free of this machine's paths."""
+    """The run's command line, free of local paths."""
     _, _, seed, *args = run.command
     args[args.index("--dataset_dir") + 1] = DATASET_PLACEHOLDER
     return " ".join(["python", "shim.py", "data_generation", seed, *args])
