@@ -184,9 +184,15 @@ def test_every_entry_links_its_predictions_and_a_model_card(site: Path, browser:
         assert predictions.endswith(".jsonl")
         _open(browser, Path(unquote(urlparse(card).path)))
         facts = browser.execute_script(
-            "return Array.from(document.querySelectorAll('dl.card dt')).map(d => d.textContent);")
+            "return Array.from(document.querySelectorAll('dl.card:not(.protocol) dt'))"
+            ".map(d => d.textContent);")
         assert facts == ["training data", "training time", "parameters", "supervision",
                          "inputs it reads"]
+        protocol = browser.execute_script(
+            "return Array.from(document.querySelectorAll('dl.protocol dt'))"
+            ".map(d => d.textContent);")
+        assert protocol == ["supervision", "boxes", "training parts", "seeds", "scorer",
+                            "manifest root hash"], protocol  # every committed entry states it
         _open(browser, site / "paper-v2-test.html")
 
 
