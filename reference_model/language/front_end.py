@@ -7,8 +7,9 @@ rewrites an instruction before the model reads it, word by word, then sentence b
 1. **casing and punctuation**: lower case; ``!``, ``?`` and ``;`` end a sentence as ``.``
    does; a missing final stop is added.
 2. **each word the model does not know** is, in this order: a colour name read as the
-   world colour nearest in hue (:mod:`.colour_names`: ``crimson`` -> ``red``); a typo of a
-   known word (the known word at the smallest optimal-string-alignment distance, at most
+   world colour nearest in hue (:mod:`.colour_names`: ``crimson`` -> ``red``); a known
+   stem (``leftwards`` -> ``left``) or two known words run together (``rightside``); a
+   typo of a known word (the known word at the smallest optimal-string-alignment distance, at most
    ``typo_edits`` edits for words of ``typo_long`` letters or more and one edit for
    shorter ones, never for words under ``typo_min`` letters; rapidfuzz); a synonym
    (``synonyms``: the known word nearest in a sentence-embedding space, if the extra is
@@ -108,6 +109,9 @@ class FrontEnd:
             stem = w.removesuffix(suffix)
             if stem != w and stem in self.known:
                 return stem, "stem"
+        for i in range(3, len(w) - 2):  # a compound of two known words: "rightside"
+            if w[:i] in self.known and w[i:] in self.known:
+                return f"{w[:i]} {w[i:]}", "compound"
         if len(w) >= self.typo_min and w not in self.english:
             limit = self.typo_edits if len(w) >= self.typo_long else 1
             found = self._extract(w, self._choices, scorer=self._distance,
@@ -138,7 +142,7 @@ class FrontEnd:
             new, how = self.word(tok)
             if how != "known":
                 changes.append(f"{tok} -> {new}" if new is not None else f"{tok} dropped")
-            sentences[-1].append(new if new is not None else _DROPPED)
+            sentences[-1].extend(new.split() if new is not None else [_DROPPED])
         kept: list[list[str]] = []
         for s in sentences:
             words = [t for t in s if t not in (",", _DROPPED)]
