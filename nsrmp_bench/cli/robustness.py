@@ -59,22 +59,12 @@ def render(suite: object) -> None:
     from nsrmp_bench.results.robustness_table import Suite
 
     assert isinstance(suite, Suite)
-    controls = suite.controls
-    kinds = [k for k in suite.kinds if k not in controls]
     t = Table(title=f"{suite.split}: paired IoU-M difference to the unperturbed part "
               "[95% CI]; controls: IoU-M", title_justify="left")
-    for col in ("model", "IoU-M", *kinds, *controls):
+    head, rows = suite.table()
+    for col in head:
         t.add_column(col, justify="left" if col == "model" else "right")
-    for s in suite.sources:
-        first = next(r for r in suite.rows if r.source == s)
-        cells = [s, f"{first.clean_iou_m:.3f}"]
-        for k in kinds:
-            r = suite.row(s, k)
-            cells.append("" if r is None else
-                         f"{r.diff:+.3f} [{r.diff_low:+.3f}, {r.diff_high:+.3f}]")
-        for k in controls:
-            r = suite.row(s, k)
-            cells.append("" if r is None else f"{r.iou_m:.3f}")
+    for cells in rows:
         t.add_row(*cells)
     Console().print(t)
 

@@ -84,16 +84,17 @@ class Suite:
         text = json.dumps(self.to_dict(), indent=1, sort_keys=True) + "\n"
         return atomic_write_text(path, text)
 
-    def markdown(self) -> str:
-        """The board: a row per source, a column per kind (paired IoU-M difference [95%
-        interval]), the controls apart (their IoU-M)."""
+    def table(self) -> tuple[list[str], list[list[str]]]:
+        """The board's header and rows of text: a row per source, its IoU-M on the
+        unperturbed part, per kind the paired IoU-M difference [95% interval], the controls
+        apart (their IoU-M)."""
         controls = self.controls
         kinds = [k for k in self.kinds if k not in controls]
-        head = ["source", "IoU-M", *kinds, *(f"{c} (IoU-M)" for c in controls)]
-        lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        head = ["model", "IoU-M", *kinds, *(f"{c} (IoU-M)" for c in controls)]
+        rows = []
         for s in self.sources:
-            any_row = next(r for r in self.rows if r.source == s)
-            cells = [s, f"{any_row.clean_iou_m:.3f}"]
+            first = next(r for r in self.rows if r.source == s)
+            cells = [s, f"{first.clean_iou_m:.3f}"]
             for k in kinds:
                 r = self.row(s, k)
                 cells.append("" if r is None else
@@ -101,7 +102,14 @@ class Suite:
             for k in controls:
                 r = self.row(s, k)
                 cells.append("" if r is None else f"{r.iou_m:.3f}")
-            lines.append("| " + " | ".join(cells) + " |")
+            rows.append(cells)
+        return head, rows
+
+    def markdown(self) -> str:
+        """The board as a Markdown table (:meth:`table`)."""
+        head, rows = self.table()
+        lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        lines += ["| " + " | ".join(cells) + " |" for cells in rows]
         return "\n".join(lines) + "\n"
 
 

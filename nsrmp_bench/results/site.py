@@ -445,25 +445,13 @@ def _robustness_page(suites: Sequence[Suite], splits: Sequence[str]) -> str:
             "IoU-M. Made by <code>nsrmp-bench robustness ... --board "
             "leaderboards/robustness</code> with the suite's seed and word lists.</p>"]
     for suite in suites:
-        controls = suite.controls
-        kinds = [k for k in suite.kinds if k not in controls]
-        head = "".join(f"<th>{_e(h)}</th>" for h in ("model", "IoU-M", *kinds, *controls))
-        rows = []
-        for source in suite.sources:
-            first = next(r for r in suite.rows if r.source == source)
-            cells = [f'<td class="text">{_model_name(source)}</td>',
-                     f"<td>{first.clean_iou_m:.3f}</td>"]
-            for k in kinds:
-                r = suite.row(source, k)
-                cells.append("<td></td>" if r is None else
-                             f'<td data-value="{r.diff:.4f}">{r.diff:+.3f} '
-                             f"[{r.diff_low:+.3f}, {r.diff_high:+.3f}]</td>")
-            for k in controls:
-                r = suite.row(source, k)
-                cells.append("<td></td>" if r is None else f"<td>{r.iou_m:.3f}</td>")
-            rows.append("<tr>" + "".join(cells) + "</tr>")
+        head, rows = suite.table()
+        cells = ["<tr>" + "".join(f'<td class="text">{_model_name(c)}</td>' if i == 0
+                                  else f"<td>{_e(c)}</td>" for i, c in enumerate(row))
+                 + "</tr>" for row in rows]
         body += [f"<h2>{_e(suite.split)} (suite seed {suite.seed})</h2>", "<table>",
-                 f"<thead><tr>{head}</tr></thead>", "<tbody>", *rows, "</tbody>", "</table>"]
+                 "<thead><tr>" + "".join(f"<th>{_e(h)}</th>" for h in head) + "</tr></thead>",
+                 "<tbody>", *cells, "</tbody>", "</table>"]
     return _page("Robustness", body)
 
 
