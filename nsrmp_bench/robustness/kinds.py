@@ -152,42 +152,48 @@ def _imperative(lexed: str, text: str, not_imperative: Sequence[str]) -> bool:
     return m is not None and m.group().lower() not in not_imperative
 
 
+def _some(rng: np.random.Generator, chances: Sequence[float]) -> tuple[bool, ...]:
+    """Independent draws with ``chances``, drawn again until at least one is true."""
+    while True:
+        drawn = tuple(bool(rng.random() < p) for p in chances)
+        if any(drawn):
+            return drawn
+
+
+def _opened(body: str, opener: str, edits: list[str], what: str = "opener") -> str:
+    edits.append(f"{what} {opener!r}")
+    return f"{opener} {_lower_first(body)}" if what == "opener" else f"{opener} {body}"
+
+
+def _closed(body: str, end: str, closing: str | None, edits: list[str]) -> Perturbed:
+    out = body + (end or ".")
+    if closing is not None:
+        out = f"{out} {closing}"
+        edits.append(f"closing {closing!r}")
+    return Perturbed(_upper_first(out), True, tuple(edits))
+
+
 def _polite(text: str, rng: np.random.Generator, lex: dict[str, Any], lexed: str
             ) -> Perturbed:
     polite = lex["polite"]
     body, end = _split_final_stop(text)
-    while True:
-        opener, stop, closing = (bool(rng.random() < p) for p in (0.6, 0.4, 0.6))
-        if opener or stop or closing:
-            break
+    opener, stop, closing = _some(rng, (0.6, 0.4, 0.6))
     edits: list[str] = []
     if opener and _imperative(lexed, text, polite["not_imperative"]):
-        o = _choice(rng, polite["openers"])
-        body = f"{o} {_lower_first(body)}"
-        edits.append(f"opener {o!r}")
+        body = _opened(body, _choice(rng, polite["openers"]), edits)
     elif opener:
-        o = _choice(rng, polite["greetings"])
-        body = f"{o} {body}"
-        edits.append(f"greeting {o!r}")
+        body = _opened(body, _choice(rng, polite["greetings"]), edits, "greeting")
     if stop:
         s = _choice(rng, polite["in_place_of_final_stop"])
         body, end = body + s[:-1], s[-1]
         edits.append(f"ending {s!r}")
-    out = body + (end or ".")
-    if closing:
-        c = _choice(rng, polite["closings"])
-        out = f"{out} {c}"
-        edits.append(f"closing {c!r}")
-    return Perturbed(_upper_first(out), True, tuple(edits))
+    return _closed(body, end, _choice(rng, polite["closings"]) if closing else None, edits)
 
 
 def _filler(text: str, rng: np.random.Generator, lex: dict[str, Any]) -> Perturbed:
     filler = lex["filler"]
     body, end = _split_final_stop(text)
-    while True:
-        opener, aside, closing = (bool(rng.random() < p) for p in (0.5, 0.5, 0.4))
-        if opener or aside or closing:
-            break
+    opener, aside, closing = _some(rng, (0.5, 0.5, 0.4))
     edits: list[str] = []
     if aside:
         a = _choice(rng, filler["asides"])
@@ -199,15 +205,8 @@ def _filler(text: str, rng: np.random.Generator, lex: dict[str, Any]) -> Perturb
             body = f"{body}, {a}"
         edits.append(f"aside {a!r}")
     if opener:
-        o = _choice(rng, filler["openers"])
-        body = f"{o} {_lower_first(body)}"
-        edits.append(f"opener {o!r}")
-    out = body + (end or ".")
-    if closing:
-        c = _choice(rng, filler["closings"])
-        out = f"{out} {c}"
-        edits.append(f"closing {c!r}")
-    return Perturbed(_upper_first(out), True, tuple(edits))
+        body = _opened(body, _choice(rng, filler["openers"]), edits)
+    return _closed(body, end, _choice(rng, filler["closings"]) if closing else None, edits)
 
 
 def _neighbours(ch: str) -> str:
