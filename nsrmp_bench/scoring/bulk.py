@@ -40,10 +40,11 @@ _NULL = msgspec.Raw(b"null")
 _ACTION_CODE = {a: i for i, a in enumerate(ACTIONS)}
 _MAX_EXACT = 2.0**53  # larger numbers: the line-by-line parser decides (ints are refused)
 
-# the bytes of nested arrays of JSON numbers (whitespace removed)
-_NUMERIC_JSON = b"0123456789.-+eE[],"
-_KIND = bytes(2 if c == ord("[") else 3 if c == ord("]") else
-              1 if c in b"0123456789.-+eE" else 0 for c in range(256))
+# the bytes of nested arrays of JSON numbers (whitespace removed): 1 a number's, 2 [, 3 ],
+# 0 a comma, 4 any other
+_SPACES = b" \t\r\n"
+_KIND = bytes(2 if c == ord("[") else 3 if c == ord("]") else 0 if c == ord(",") else
+              1 if c in b"0123456789.-+eE" else 4 for c in range(256))
 _NUMBERS_ONLY = bytes(c if c in b"0123456789.-+eE" else ord("\n") for c in range(256))
 
 
@@ -208,12 +209,15 @@ def _arrays(raws: Sequence[msgspec.Raw], depth: int, width: int) -> tuple[F64, l
     boxes per state). Raises :class:`_Unusual` for anything but that shape of numbers.
     msgspec has checked that each raw value is valid JSON, so only the shape is left.
     """
-    text = b"".join(raws).translate(None, b" \t\r\n")
-    if text.translate(None, _NUMERIC_JSON):  # strings, objects, true, false, null
-        raise _Unusual
+    text = b"".join(raws)
+    if any(space in text for space in _SPACES):
+        text = text.translate(None, _SPACES)
     kind = np.frombuffer(text.translate(_KIND), dtype=np.uint8)  # 1 digit, 2 [, 3 ], 0 ,
-    where = np.flatnonzero(kind >= 2)  # the brackets, in order
-    opening = kind[where] == 2
+    where = np.flatnonzero(kind >= 2)  # the brackets, in order (and any other byte)
+    kinds = kind[where]
+    if kinds.max(initial=0) > 3:  # strings, objects, true, false, null
+        raise _Unusual
+    opening = kinds == 2
     level = np.cumsum(np.where(opening, 1, -1).astype(np.int32))  # depth after each bracket
     if level.max(initial=0) > depth:
         raise _Unusual
