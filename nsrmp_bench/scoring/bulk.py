@@ -251,6 +251,8 @@ def _children(parents: I64, children: I64) -> I64:
 
 def _parse_numbers(text: bytes, n: int) -> F64:
     """``n`` newline-terminated JSON numbers as float64, correctly rounded."""
+    if n == 0:  # (numpy reads no number as [-1.0], pyarrow refuses an empty file)
+        return np.zeros(0)
     try:
         values = numbers_arrow(text)
     except ImportError:
@@ -265,14 +267,18 @@ def numbers_arrow(text: bytes) -> F64:
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
-    table = pcsv.read_csv(
-        io.BytesIO(text),
-        read_options=pcsv.ReadOptions(column_names=["v"], block_size=1 << 24),
-        parse_options=pcsv.ParseOptions(quote_char=False),
-        convert_options=pcsv.ConvertOptions(
-            column_types={"v": pa.float64()}, null_values=[], strings_can_be_null=False
-        ),
-    )
+    try:
+        table = pcsv.read_csv(
+            io.BytesIO(text),
+            read_options=pcsv.ReadOptions(column_names=["v"], block_size=1 << 24,
+                                          use_threads=False),
+            parse_options=pcsv.ParseOptions(quote_char=False),
+            convert_options=pcsv.ConvertOptions(
+                column_types={"v": pa.float64()}, null_values=[], strings_can_be_null=False
+            ),
+        )
+    except (pa.ArrowException, ValueError) as exc:
+        raise _Unusual from exc
     column = table.column(0)
     if column.null_count:
         raise _Unusual

@@ -129,6 +129,15 @@ def _read_parquet_row_by_row(path: Path) -> Submission:
     return parser.finish()
 
 
+def test_optional_fields_that_are_all_empty_read_the_same(tmp_path: Path) -> None:
+    lines = [json.dumps({"header": HEADER.to_dict()})]
+    lines += [json.dumps({"id": f"e{k}", "boxes": [[1, 2, 3, 4]], "step_boxes": [],
+                          "program": []}) for k in range(3)]
+    path = tmp_path / "pred.jsonl"
+    path.write_text("\n".join(lines) + "\n")
+    assert_same(bulk(path), line_by_line(path))
+
+
 NUMBERS = ["0", "1", "-1", "0.1", "-0.5", "1e5", "1E-7", "2.5e+3", "123456.789012345",
            "5e-324", "1.7976931348623157e308", "9007199254740992", "0.30000000000000004",
            "3.141592653589793", "100", "-2.2250738585072014e-308"]
