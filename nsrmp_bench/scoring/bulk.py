@@ -46,6 +46,8 @@ _SPACES = b" \t\r\n"
 _KIND = bytes(2 if c == ord("[") else 3 if c == ord("]") else 0 if c == ord(",") else
               1 if c in b"0123456789.-+eE" else 4 for c in range(256))
 _NUMBERS_ONLY = bytes(c if c in b"0123456789.-+eE" else ord("\n") for c in range(256))
+_ROWS = bytes(ord("\n") if c in b"[]" else c for c in range(256))
+_NEWLINE = ord("\n")
 
 
 class _Line(msgspec.Struct, forbid_unknown_fields=True):
@@ -224,22 +226,51 @@ def _arrays(raws: Sequence[msgspec.Raw], depth: int, width: int) -> tuple[F64, l
     starts = [where[opening & (level == d)] for d in range(1, depth + 1)]
     if len(starts[0]) != len(raws):
         raise _Unusual
-    # an innermost array's closing bracket is the next bracket after its opening one
-    inner = np.flatnonzero(opening & (level == depth))
-    digit = kind == 1
-    first = np.flatnonzero(digit[1:] > digit[:-1]) + 1  # where each number starts
-    inside = np.searchsorted(first, where[inner + 1]) - np.searchsorted(first, where[inner])
-    if (inside != width).any() or int(inside.sum()) != len(first):  # a number elsewhere
+    # an innermost array's closing bracket is the next bracket after its opening one;
+    # between any other two brackets there is nothing or one comma (a number is an error)
+    innermost = opening & (level == depth)
+    inner = np.flatnonzero(innermost)
+    gap = np.diff(where) - 1
+    outside = ~innermost[:-1]
+    if (gap[outside] > 1).any():
+        raise _Unusual
+    between = where[:-1][outside & (gap == 1)] + 1  # commas between arrays, or a number
+    if (kind[between] != 0).any():
         raise _Unusual
     counts = [_children(starts[d], starts[d + 1]) for d in range(depth - 1)]
-    values = _parse_numbers(text.translate(_NUMBERS_ONLY), len(first))
+    values = _rows(text, kind, where, inner, between, width)
     if (
         not np.isfinite(values).all()
         or (np.abs(values) > _MAX_EXACT).any()
         or ((values == 0) & np.signbit(values)).any()  # -0: json reads the int 0 as +0.0
     ):
         raise _Unusual
-    return values.reshape(-1, width), counts
+    return values, counts
+
+
+def _rows(text: bytes, kind: NDArray[np.uint8], where: I64, inner: I64, between: I64,
+          width: int) -> F64:
+    """The numbers of each innermost array (``width`` each, else :class:`_Unusual`)."""
+    if not len(inner):
+        return np.zeros((0, width))
+    try:  # one CSV row per innermost array: pyarrow checks each row's count
+        lines = np.frombuffer(text, dtype=np.uint8).copy()
+        lines[between] = _NEWLINE
+        values = numbers_arrow(lines.tobytes().translate(_ROWS), width)
+    except ImportError:  # count each array's numbers here, then read them with numpy
+        digit = kind == 1
+        first = np.flatnonzero(digit[1:] > digit[:-1]) + 1  # where each number starts
+        inside = (np.searchsorted(first, where[inner + 1])
+                  - np.searchsorted(first, where[inner]))
+        if (inside != width).any():
+            raise _Unusual from None
+        flat = numbers_numpy(text.translate(_NUMBERS_ONLY))
+        if len(flat) != width * len(inner):
+            raise _Unusual from None
+        values = flat.reshape(-1, width)
+    if len(values) != len(inner):  # an empty innermost array
+        raise _Unusual
+    return values
 
 
 def _children(parents: I64, children: I64) -> I64:
@@ -249,40 +280,32 @@ def _children(parents: I64, children: I64) -> I64:
     return out
 
 
-def _parse_numbers(text: bytes, n: int) -> F64:
-    """``n`` newline-terminated JSON numbers as float64, correctly rounded."""
-    if n == 0:  # (numpy reads no number as [-1.0], pyarrow refuses an empty file)
-        return np.zeros(0)
-    try:
-        values = numbers_arrow(text)
-    except ImportError:
-        values = numbers_numpy(text)
-    if len(values) != n:
-        raise _Unusual
-    return values
-
-
-def numbers_arrow(text: bytes) -> F64:
-    """Newline-terminated numbers read by pyarrow's CSV reader (ImportError without it)."""
+def numbers_arrow(text: bytes, width: int = 1) -> F64:
+    """Lines of ``width`` comma-separated numbers, read by pyarrow's CSV reader, as a
+    ``(lines, width)`` array (empty lines skipped; ImportError without pyarrow)."""
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
+    names = [f"c{k}" for k in range(width)]
     try:
         table = pcsv.read_csv(
             io.BytesIO(text),
-            read_options=pcsv.ReadOptions(column_names=["v"], block_size=1 << 24,
+            read_options=pcsv.ReadOptions(column_names=names, block_size=1 << 24,
                                           use_threads=False),
             parse_options=pcsv.ParseOptions(quote_char=False),
             convert_options=pcsv.ConvertOptions(
-                column_types={"v": pa.float64()}, null_values=[], strings_can_be_null=False
+                column_types=dict.fromkeys(names, pa.float64()), null_values=[],
+                strings_can_be_null=False,
             ),
         )
-    except (pa.ArrowException, ValueError) as exc:
+    except (pa.ArrowException, ValueError) as exc:  # a line with another count of numbers
         raise _Unusual from exc
-    column = table.column(0)
-    if column.null_count:
+    if any(table.column(k).null_count for k in range(width)):
         raise _Unusual
-    return np.ascontiguousarray(column.to_numpy(), dtype=np.float64)
+    out = np.empty((table.num_rows, width))
+    for k in range(width):
+        out[:, k] = table.column(k).to_numpy()
+    return out
 
 
 def numbers_numpy(text: bytes) -> F64:
