@@ -291,7 +291,7 @@ def numbers_arrow(text: bytes, width: int = 1) -> F64:
         table = pcsv.read_csv(
             io.BytesIO(text),
             read_options=pcsv.ReadOptions(column_names=names, block_size=1 << 24,
-                                          use_threads=False),
+                                          use_threads=True),
             parse_options=pcsv.ParseOptions(quote_char=False),
             convert_options=pcsv.ConvertOptions(
                 column_types=dict.fromkeys(names, pa.float64()), null_values=[],
