@@ -1,11 +1,13 @@
 """Reading a well-formed predictions file in bulk, without a Python object per number.
 
 JSON Lines: msgspec decodes each line's structure in C (ids and programs typed, the number
-fields kept as raw JSON text); the raw text of each number field, joined over the file, is
-checked as nested arrays of numbers with numpy (bracket depth, items per array, array
-counts against the line's ``boxes``) and its numbers are read in one call (pyarrow's CSV
-reader where installed, else numpy's text reader; both round correctly, as ``json`` does).
-Parquet: the typed columns are checked and flattened with pyarrow.
+fields kept as raw JSON text). The raw text of each number field, joined over the file, is
+checked as nested arrays of numbers from its bracket positions with numpy (depth, arrays
+per array against the line's ``boxes``, nothing but commas between arrays), and read in
+one call: by pyarrow's CSV reader where installed, one row per innermost array (which
+checks each array's count of numbers), else counted with numpy and read by numpy's text
+reader. Both round correctly, as ``json`` does. Parquet: the typed columns are checked and
+flattened with pyarrow.
 
 This is a fast path only. It returns ``None`` as soon as anything is unusual (a problem,
 a blank line, a detections field, a number outside what it can prove it reads exactly);
