@@ -1,13 +1,20 @@
-"""Reading a predictions file (JSON Lines or Parquet) into a checked :class:`Submission`."""
+"""Reading a predictions file (JSON Lines or Parquet) into a checked :class:`Submission`.
+
+A valid file is read in bulk (:mod:`nsrmp_bench.scoring.bulk`); a file the bulk reader
+finds anything unusual in is read line by line by
+:class:`~nsrmp_bench.scoring.validate.SubmissionParser`, which names every problem.
+"""
 
 from __future__ import annotations
 
 import gc
+import io
 import json
 from pathlib import Path
 from typing import Any
 
 from nsrmp_bench.errors import MissingExtra, SubmissionError
+from nsrmp_bench.scoring.bulk import read_jsonl_bulk, read_parquet_bulk
 from nsrmp_bench.scoring.submission import PARQUET_COLUMNS, PARQUET_HEADER_KEY, Submission
 from nsrmp_bench.scoring.validate import Problems, SubmissionParser
 
@@ -42,53 +49,60 @@ def read_submission_pending(path: str | Path) -> tuple[Submission, Problems]:
     enabled = gc.isenabled()
     gc.disable()
     try:
-        parser = _read_parquet(p) if p.suffix == ".parquet" else _read_jsonl(p)
-        return parser.finish(check=False), parser.problems
+        if p.suffix == ".parquet":
+            parsed = _read_parquet(p)
+        else:
+            data = p.read_bytes()
+            bulk = read_jsonl_bulk(str(p), data)
+            parsed = bulk if bulk is not None else _read_jsonl(p, data)
+        if isinstance(parsed, Submission):
+            return parsed, Problems(str(p))
+        return parsed.finish(check=False), parsed.problems
     finally:
         if enabled:
             gc.enable()
 
 
-def _read_jsonl(path: Path) -> SubmissionParser:
+def _read_jsonl(path: Path, data: bytes) -> SubmissionParser:
+    """Every line through the line-by-line parser, which names each problem."""
     parser = SubmissionParser(str(path))
     header_done = False
-    with path.open("rb") as fh:
-        for lineno, raw in enumerate(fh, 1):
-            if not raw.strip():
-                continue
-            try:
-                text = raw.decode("utf-8").rstrip("\r\n")
-            except UnicodeDecodeError as exc:
-                parser.problem(
-                    lineno,
-                    f"is not UTF-8 text (byte {exc.start + 1}); write the file as UTF-8 JSON",
-                )
-                header_done = True
-                continue
-            try:
-                obj: Any = json.loads(text)
-            except json.JSONDecodeError as exc:
-                parser.problem(
-                    lineno,
-                    f"is not valid JSON ({exc.msg} at column {exc.colno}); each line must be "
-                    "one complete JSON object",
-                )
-                header_done = True
-                continue
-            except RecursionError:
-                parser.problem(lineno, "nests too deeply to be a prediction; check the line")
-                header_done = True
-                continue
-            if not header_done:
-                parser.parse_header(lineno, obj)
-                header_done = True
-                continue
-            # Booleans are numbers to numpy: scan lines that could hold one in Python.
-            parser.parse_record(lineno, obj, deep=b"true" in raw or b"false" in raw)
+    for lineno, raw in enumerate(io.BytesIO(data), 1):
+        if not raw.strip():
+            continue
+        try:
+            text = raw.decode("utf-8").rstrip("\r\n")
+        except UnicodeDecodeError as exc:
+            parser.problem(
+                lineno,
+                f"is not UTF-8 text (byte {exc.start + 1}); write the file as UTF-8 JSON",
+            )
+            header_done = True
+            continue
+        try:
+            obj: Any = json.loads(text)
+        except json.JSONDecodeError as exc:
+            parser.problem(
+                lineno,
+                f"is not valid JSON ({exc.msg} at column {exc.colno}); each line must be "
+                "one complete JSON object",
+            )
+            header_done = True
+            continue
+        except RecursionError:
+            parser.problem(lineno, "nests too deeply to be a prediction; check the line")
+            header_done = True
+            continue
+        if not header_done:
+            parser.parse_header(lineno, obj)
+            header_done = True
+            continue
+        # Booleans are numbers to numpy: scan lines that could hold one in Python.
+        parser.parse_record(lineno, obj, deep=b"true" in raw or b"false" in raw)
     return parser
 
 
-def _read_parquet(path: Path) -> SubmissionParser:
+def _read_parquet(path: Path) -> SubmissionParser | Submission:
     from nsrmp_bench._optional import require
 
     try:
@@ -116,6 +130,10 @@ def _read_parquet(path: Path) -> SubmissionParser:
         msg = f"{path}: its {PARQUET_HEADER_KEY!r} metadata is not JSON ({exc}); store the header"
         raise SubmissionError(msg) from exc
     parser.parse_header(None, {"header": header})
+    if parser.header is not None and not parser.problems.count:
+        bulk = read_parquet_bulk(str(path), table, parser.header)
+        if bulk is not None:
+            return bulk
     unknown = [c for c in table.column_names if c not in PARQUET_COLUMNS]
     if unknown:
         msg = (

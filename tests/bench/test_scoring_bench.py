@@ -15,6 +15,8 @@ pick/place locations on some lines (``tests/scoring/scoring_factory.py``). Timed
 * ``full``: as headline, plus bootstrap intervals for every breakdown group;
 * ``end_to_end``: reading and checking the JSON Lines file, matching it to the split,
   and ``headline``;
+* ``end_to_end_parquet``: the same with the same predictions as a Parquet file (needs
+  pyarrow);
 * ``python_loop``: IoU, IoU-M, 2D success and two program accuracies only, one instance
   at a time in plain Python (the comparison).
 """
@@ -33,7 +35,12 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scoring"))
 
-from scoring_factory import loop_scores, synthetic_tables, write_table_jsonl
+from scoring_factory import (
+    loop_scores,
+    synthetic_tables,
+    write_table_jsonl,
+    write_table_parquet,
+)
 
 from nsrmp_bench.scoring.metrics import instance_scores
 from nsrmp_bench.scoring.scorer import score, summarise
@@ -50,6 +57,14 @@ def tables() -> Any:
 def jsonl(tables: Any, tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("bench") / "pred.jsonl"
     write_table_jsonl(*tables, path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def parquet(tables: Any, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    pytest.importorskip("pyarrow")
+    path = tmp_path_factory.mktemp("bench") / "pred.parquet"
+    write_table_parquet(*tables, path)
     return path
 
 
@@ -77,7 +92,16 @@ def test_full(benchmark: Any, tables: Any) -> None:
 def test_end_to_end(benchmark: Any, tables: Any, jsonl: Path) -> None:
     gold, _ = tables
     result = benchmark.pedantic(
-        score, args=(jsonl, gold), kwargs={"breakdown_intervals": False}, rounds=1,
+        score, args=(jsonl, gold), kwargs={"breakdown_intervals": False}, rounds=3,
+        iterations=1,
+    )
+    assert result.counts["instances"] == N
+
+
+def test_end_to_end_parquet(benchmark: Any, tables: Any, parquet: Path) -> None:
+    gold, _ = tables
+    result = benchmark.pedantic(
+        score, args=(parquet, gold), kwargs={"breakdown_intervals": False}, rounds=3,
         iterations=1,
     )
     assert result.counts["instances"] == N

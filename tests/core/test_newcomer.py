@@ -205,6 +205,7 @@ def _resumed_to_the_committed_bytes(out: Path, *engine: str) -> None:
     assert not list(out.glob("test/*.tmp"))
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
 def test_sigterm_stops_generate_and_its_workers_then_it_resumes(tmp_path: Path) -> None:
     pytest.importorskip("pybullet")
@@ -239,6 +240,7 @@ def _no_shutdown_noise(err: str) -> None:
         assert noise not in err, err
 
 
+@pytest.mark.slow
 @pytest.mark.sim
 @pytest.mark.dask
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
@@ -285,6 +287,7 @@ def test_sigterm_or_a_killed_driver_stops_the_dask_cluster_then_generate_resumes
     _resumed_to_the_committed_bytes(out, *dask)  # the same command resumes
 
 
+@pytest.mark.slow
 @pytest.mark.sim
 @pytest.mark.dask
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")

@@ -101,6 +101,7 @@ def test_tiny_run_learns_and_writes_the_run(model_id: str, root: Path, runs: dic
     assert cls.from_checkpoint(out / "best.pt").config.to_dict() == card.config
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model_id", IDS)
 def test_same_seed_same_bytes(model_id: str, root: Path, runs: dict[str, Path],
                               tmp_path_factory: pytest.TempPathFactory, tmp_path: Path) -> None:

@@ -43,6 +43,7 @@ def tiny_run(tiny_paper: Path, tmp_path_factory: pytest.TempPathFactory) -> Path
     return out
 
 
+@pytest.mark.slow
 def test_tiny_training_learns_to_pick(tiny_run: Path, tiny_paper: Path,
                                       tmp_path: Path) -> None:
     log = [json.loads(x) for x in (tiny_run / "log.jsonl").read_text().splitlines()]
@@ -62,6 +63,7 @@ def test_tiny_training_learns_to_pick(tiny_run: Path, tiny_paper: Path,
     assert "single-step" in card["training_data"]
 
 
+@pytest.mark.slow
 def test_same_seed_same_checkpoint_bytes(tiny_paper: Path, tmp_path: Path) -> None:
     runs = []
     for name in ("a", "b"):
@@ -150,6 +152,7 @@ def test_picked_object_and_its_moved_box() -> None:
     assert clipped[0].tolist() == [313.0, 0.0, 320.0, 6.0]
 
 
+@pytest.mark.slow
 def test_bad_input_is_a_clear_error(tiny_paper: Path, tmp_path: Path,
                                     capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["train", "dense5x", "--data", str(tiny_paper), "--out",

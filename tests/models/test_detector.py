@@ -24,6 +24,7 @@ def tiny_run(tmp_path_factory: pytest.TempPathFactory, tiny_paper: Path) -> Path
                                    config=cfg, quiet=True)
 
 
+@pytest.mark.slow
 def test_tiny_training_learns_to_detect(tiny_run: Path, smoke_test: Path):
     from nsrmp_bench.detection.metrics import gold_scenes, score_detections
     from nsrmp_bench.reference_model.detector import DetectorPredictor
@@ -36,6 +37,7 @@ def test_tiny_training_learns_to_detect(tiny_run: Path, smoke_test: Path):
     assert card["model"] == "detector-v1" and card["parameters"] > 0
 
 
+@pytest.mark.slow
 def test_same_seed_and_data_give_the_same_bytes(tmp_path: Path, tiny_paper: Path):
     from nsrmp_bench.reference_model.detector import DetectorConfig, DetectorPredictor
 
@@ -45,6 +47,7 @@ def test_same_seed_and_data_give_the_same_bytes(tmp_path: Path, tiny_paper: Path
     assert a.read_bytes() == b.read_bytes()
 
 
+@pytest.mark.slow
 def test_nsrm_reads_detected_boxes_and_the_scorer_matches_them(tiny_run: Path,
                                                                tmp_path: Path,
                                                                smoke_test: Path):

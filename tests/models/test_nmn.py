@@ -29,6 +29,7 @@ def tiny_nmn(tiny_paper: Path, tmp_path_factory: pytest.TempPathFactory) -> Path
     return out
 
 
+@pytest.mark.slow
 def test_tiny_training_learns(tiny_nmn: Path, tiny_paper: Path, tmp_path: Path,
                               iou_m_of: Callable[[Path, Path, Path], float]) -> None:
     log = [json.loads(x) for x in (tiny_nmn / "log.jsonl").read_text().splitlines()]
@@ -48,6 +49,7 @@ def test_tiny_training_learns(tiny_nmn: Path, tiny_paper: Path, tmp_path: Path,
     assert "final boxes" in card["supervision"]
 
 
+@pytest.mark.slow
 def test_same_seed_same_checkpoint_bytes(tiny_paper: Path, tmp_path: Path) -> None:
     short = ["--set", "epochs_single=1", "--set", "epochs_splitter=1",
              "--set", "epochs_multistep=1", "--set", "splitter_examples=32", "--quiet"]
@@ -60,6 +62,7 @@ def test_same_seed_same_checkpoint_bytes(tiny_paper: Path, tmp_path: Path) -> No
     assert runs[0] == runs[1]
 
 
+@pytest.mark.slow
 def test_model_never_reads_targets(tiny_nmn: Path, smoke_test: Path,
                                    hide_targets: Callable[[dict[str, Any]], dict[str, Any]]
                                    ) -> None:

@@ -32,6 +32,7 @@ def tiny_run(tiny_paper: Path, tmp_path_factory: pytest.TempPathFactory) -> Path
     return out
 
 
+@pytest.mark.slow
 def test_tiny_training_learns(tiny_run: Path, tiny_paper: Path, tmp_path: Path,
                               iou_m_of: Callable[[Path, Path, Path], float]) -> None:
     log = [json.loads(x) for x in (tiny_run / "log.jsonl").read_text().splitlines()]
@@ -51,6 +52,7 @@ def test_tiny_training_learns(tiny_run: Path, tiny_paper: Path, tmp_path: Path,
     assert card["parameters"] > 0 and "final boxes" in card["supervision"]
 
 
+@pytest.mark.slow
 def test_same_seed_same_checkpoint_bytes(tiny_paper: Path, tmp_path: Path) -> None:
     short = ["--set", "epochs_attribute=1", "--set", "epochs_relational=1",
              "--set", "epochs_reinforce=1", "--set", "epochs_splitter=1",
@@ -64,6 +66,7 @@ def test_same_seed_same_checkpoint_bytes(tiny_paper: Path, tmp_path: Path) -> No
     assert runs[0] == runs[1]
 
 
+@pytest.mark.slow
 def test_resume_after_interruption_continues(tiny_paper: Path, tmp_path: Path) -> None:
     import os
     import signal
@@ -98,6 +101,7 @@ def test_resume_after_interruption_continues(tiny_paper: Path, tmp_path: Path) -
     assert (out / "best.pt").exists()
 
 
+@pytest.mark.slow
 def test_checkpoint_round_trips(tiny_run: Path, tmp_path: Path) -> None:
     from nsrmp_bench.reference_model import load_model
     from nsrmp_bench.reference_model.checkpoints import save_checkpoint
@@ -111,6 +115,7 @@ def test_checkpoint_round_trips(tiny_run: Path, tmp_path: Path) -> None:
     assert again.vocab == model.vocab and again.config == model.config
 
 
+@pytest.mark.slow
 def test_model_never_reads_targets(tiny_run: Path, smoke_test: Path,
                                    hide_targets: Callable[[dict[str, Any]], dict[str, Any]]
                                    ) -> None:
@@ -156,6 +161,7 @@ def test_evaluate_runs_the_model_and_scores_it_like_predict(
     assert run.metric("iou_m").value == iou_m_of(pred, smoke_test, tmp_path)
 
 
+@pytest.mark.slow
 def test_bad_input_is_a_clear_error(tiny_paper: Path, tmp_path: Path,
                                     capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["predict", "nsrm-v1", "--data", str(tiny_paper), "--out",

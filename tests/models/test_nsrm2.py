@@ -46,6 +46,7 @@ def test_config_refuses_an_unknown_filter_link() -> None:
         NSRM2Config(filter_link="sigmoid")
 
 
+@pytest.mark.slow
 def test_tiny_run_learns(tiny_v2: Path, tiny_paper: Path, tmp_path: Path,
                          iou_m_of: Callable[[Path, Path, Path], float]) -> None:
     log = [json.loads(x) for x in (tiny_v2 / "log.jsonl").read_text().splitlines()]

@@ -86,6 +86,7 @@ def test_member_seeds_do_not_overlap_across_run_seeds() -> None:
     assert member_seeds(1, 3) == [3, 4, 5]
 
 
+@pytest.mark.slow
 @pytest.mark.sim
 def test_a_run_of_two_members(tiny_paper: Path, tmp_path: Path) -> None:
     out = tmp_path / "run"

@@ -70,6 +70,7 @@ def _outputs(checkpoint: Path, smoke: Path) -> tuple[np.ndarray, np.ndarray, np.
             patches.inputs.numpy())
 
 
+@pytest.mark.slow
 def test_tiny_training_learns(smoke_root: Path, smoke_test: Path, tmp_path: Path) -> None:
     """Started from a noisy head (untrained, its output is the composite plus noise), the
     trained network beats its untrained self and copying the image before the step, in
@@ -89,6 +90,7 @@ def test_tiny_training_learns(smoke_root: Path, smoke_test: Path, tmp_path: Path
     assert len(log) == TINY["epochs"] and "val_region_ssim" in log[0]
 
 
+@pytest.mark.slow
 def test_same_seed_same_bytes(smoke_root: Path, tmp_path: Path) -> None:
     from nsrmp_bench.reference_model.reconstruction import (
         ReconstructionConfig,

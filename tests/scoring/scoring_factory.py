@@ -273,4 +273,26 @@ def write_table_jsonl(gold: GoldTable, pred: PredictionTable, path: Any) -> None
             fh.write(json.dumps(rec, separators=(",", ":")) + "\n")
 
 
+def write_table_parquet(gold: GoldTable, pred: PredictionTable, path: Any) -> None:
+    """The same predictions as :func:`write_table_jsonl`, as a Parquet predictions file."""
+    from nsrmp_bench.scoring.submission import write_submission
+
+    p_off = pred.program_offsets
+    boxes = np.round(pred.boxes, 3)
+    sb = np.round(pred.step_boxes, 3)
+    acts = [ACTION_NAMES[a] for a in pred.actions.tolist()]
+    subs, refs = pred.subjects.tolist(), pred.references.tolist()
+
+    def one(i: int) -> Prediction:
+        o0, o1 = int(gold.obj_offsets[i]), int(gold.obj_offsets[i + 1])
+        steps = [(acts[t], subs[t], refs[t]) for t in range(p_off[i], p_off[i + 1])]
+        fields: dict[str, Any] = {"program": steps}
+        if pred.has_step_boxes[i]:
+            s0, s1 = int(gold.stepbox_offsets[i]), int(gold.stepbox_offsets[i + 1])
+            fields["step_boxes"] = sb[s0:s1].reshape(-1, o1 - o0, 4)
+        return prediction(gold.ids[i], boxes[o0:o1], **fields)
+
+    write_submission(path, HEADER, (one(i) for i in np.flatnonzero(pred.present).tolist()))
+
+
 ACTION_NAMES = ("top", "left", "right")

@@ -54,6 +54,7 @@ def _patch(rel: str, before: str, after: str) -> str:
                                         fromfile=f"a/{rel}", tofile=f"b/{rel}"))
 
 
+@pytest.mark.slow
 def test_the_pinned_sdist_gets_the_patches_and_the_local_version(
     bp: ModuleType, sdist: Path, tmp_path: Path
 ) -> None:

@@ -26,6 +26,7 @@ from nsrmp_bench.verify import compare_with_committed
 
 pytestmark = [
     pytest.mark.sim,
+    pytest.mark.slow,
     pytest.mark.skipif(platform.machine().lower() not in {"x86_64", "amd64"},
                        reason="NPY_DISABLE_CPU_FEATURES/OPENBLAS_CORETYPE names are x86 ones"),
 ]

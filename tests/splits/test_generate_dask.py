@@ -24,7 +24,7 @@ from nsrmp_bench.generators.generate import generate_part
 from nsrmp_bench.split_specs import load_split
 from nsrmp_bench.verify import verify
 
-pytestmark = [pytest.mark.sim, pytest.mark.dask]
+pytestmark = [pytest.mark.sim, pytest.mark.dask, pytest.mark.slow]
 
 
 def _root(d: Path) -> str:

@@ -22,17 +22,14 @@ from nsrmp_bench.storage.nsrm_import import (
 
 cv2 = pytest.importorskip("cv2")
 
-# examples/00001/demo.json of dair-iitd/nsrmp, as kept in the project's shared reference
-# folder beside the repository (not copied into the repo); tests using it skip without it
-REAL_DEMO = Path(__file__).resolve().parents[3] / "shared" / "reference" / "nsrm-original-example-demo.json"
+# examples/00001/demo.json of dair-iitd/nsrmp (4 KB), shipped with the tests
+REAL_DEMO = Path(__file__).resolve().parent / "fixtures" / "nsrm-original-example-demo.json"
 W, H = 256, 192
 BGR = {"Blue": (255, 0, 0), "Green": (0, 255, 0), "Red": (0, 0, 255), "Cyan": (255, 255, 0),
        "Yellow": (0, 255, 255), "Magenta": (255, 0, 255), "White": (255, 255, 255)}
 
 
 def _real_demo() -> dict[str, Any]:
-    if not REAL_DEMO.is_file():
-        pytest.skip(f"the original example demo.json is not at {REAL_DEMO}")
     data: dict[str, Any] = json.loads(REAL_DEMO.read_text())
     return data
 
