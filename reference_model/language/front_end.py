@@ -16,7 +16,8 @@ rewrites an instruction before the model reads it, word by word, then sentence b
    installed and the similarity clears ``synonym_threshold``); else dropped: a word
    the model never saw carries nothing it can use.
 3. **sentences that name no object** ("Thank you.", "That's all.") are dropped: a step
-   always names the object it moves. An instruction left with no sentence asks for no
+   always names the object it moves (a word read as a synonym does not count: "many" must
+   not make "Many thanks." name "one"). An instruction left with no sentence asks for no
    action, and the model predicts the empty program (nothing moves).
 4. **a fronted destination** ("To the right of the blue cube, put the red block.") goes
    back after its clause: a sentence or clause that begins with a spatial preposition and
@@ -55,6 +56,7 @@ _CLAUSE_STARTS: Final = frozenset({"then", "and", "finally", "lastly", "afterwar
 _STEP_CONNECTORS: Final = frozenset({"then", "after", "afterwards", "finally", "lastly"})
 _NAMING: Final = OBJECT_WORDS | {"it"}
 _DROPPED: Final = "\0"  # where a word the model never saw was
+_SYNONYM: Final = "\1"  # marks a word read as a synonym: it does not make a sentence name an object
 
 Synonyms = Callable[[str, Sequence[str]], str | None]
 """Nearest known word to an unknown one (or None): ``(word, known words) -> word``."""
@@ -142,7 +144,11 @@ class FrontEnd:
             new, how = self.word(tok)
             if how != "known":
                 changes.append(f"{tok} -> {new}" if new is not None else f"{tok} dropped")
-            sentences[-1].extend(new.split() if new is not None else [_DROPPED])
+            if new is None:
+                sentences[-1].append(_DROPPED)
+            else:
+                mark = _SYNONYM if how == "synonym" else ""
+                sentences[-1].extend(w + mark for w in new.split())
         kept: list[list[str]] = []
         for s in sentences:
             words = [t for t in s if t not in (",", _DROPPED)]
@@ -152,7 +158,7 @@ class FrontEnd:
                 changes.append(f"sentence {' '.join(words)!r} dropped: it names no object")
                 continue
             kept.append(self._unfront(_without_filler_chunks(s, changes), changes))
-        text_out = " . ".join(" ".join(_tidy(s)) for s in kept)
+        text_out = " . ".join(" ".join(_tidy(s)).replace(_SYNONYM, "") for s in kept)
         return Reading(f"{text_out} ." if text_out else "", tuple(changes))
 
     def _unfront(self, sentence: list[str], changes: list[str]) -> list[str]:
@@ -203,8 +209,8 @@ def _step_end(tokens: list[str], begin: int) -> int:
 
 def _without_filler_chunks(sentence: list[str], changes: list[str]) -> list[str]:
     """The sentence without its comma-separated chunks that name no object and held a word
-    the model never saw ("I reckon", "when you have a moment"): they carry nothing it can
-    use. The marks of dropped words go too."""
+    the model never saw or read as a synonym ("I reckon", "when you have a moment", "if
+    possible"): they carry nothing it can use. The marks of dropped words go too."""
     chunks: list[list[str]] = [[]]
     for t in sentence:
         if t == ",":
@@ -213,7 +219,8 @@ def _without_filler_chunks(sentence: list[str], changes: list[str]) -> list[str]
             chunks[-1].append(t)
     kept: list[str] = []
     for chunk in chunks:
-        if _DROPPED in chunk and not _NAMING.intersection(chunk):
+        unsure = _DROPPED in chunk or any(t.endswith(_SYNONYM) for t in chunk)
+        if unsure and not _NAMING.intersection(chunk):
             words = [t for t in chunk if t != _DROPPED]
             if words:
                 changes.append(f"chunk {' '.join(words)!r} dropped: a filler")

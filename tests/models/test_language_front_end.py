@@ -56,3 +56,14 @@ def test_a_real_word_is_not_a_typo(front: FrontEnd) -> None:
 def test_an_instruction_that_asks_for_nothing_reads_as_nothing(front: FrontEnd) -> None:
     for said in ("Go ahead.", "Thank you!", "Proceed.", "Do it now."):
         assert front.read(said).empty, said
+
+
+def test_a_synonym_does_not_make_a_sentence_name_an_object() -> None:
+    from nsrmp_bench.reference_model.language.embeddings import english_words
+
+    near = {"many": "one", "cuboid": "cube"}
+    front = FrontEnd(KNOWN, english=english_words(), synonyms=lambda w, _known: near.get(w))
+    assert front.read("Put the red cube onto the blue dice. Many thanks.").text == \
+        "put the red cube onto the blue dice ."
+    assert front.read("Put the red cuboid onto the blue dice.").text == \
+        "put the red cube onto the blue dice ."
