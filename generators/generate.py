@@ -21,7 +21,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from nsrmp_bench import __version__
 from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.dispatch import dispatch_versions
 from nsrmp_bench.engine import Engine, TaskReport, open_engine
@@ -30,6 +29,7 @@ from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.generators.sampler import AttemptLog, first_valid, sample_symbolic
 from nsrmp_bench.private_parts import bind_secret, commitment_record
 from nsrmp_bench.split_specs import SplitSpec, load_split, resolve_split
+from nsrmp_bench.storage.layout import DATA_WRITER_VERSION
 from nsrmp_bench.storage.manifest import Manifest
 from nsrmp_bench.storage.records import ShardRecord
 from nsrmp_bench.storage.resume import scan_output, write_manifest
@@ -149,7 +149,7 @@ def generate_shard(
     world = _world(spec.image)
     stats = AttemptLog()
     with ShardWriter(out_dir, start, stop, split=f"{spec.id}/{part}",
-                     package_version=__version__, background=writer_mode) as writer:
+                     package_version=DATA_WRITER_VERSION, background=writer_mode) as writer:
         for i in range(start, stop):
             writer.add(make_episode(spec, part, i, world, stats))
             report.advance()
@@ -176,7 +176,7 @@ def versions() -> dict[str, str]:
     """Package and simulator versions recorded in every manifest, with the CPU-dependent
     kernels in use (numpy's SIMD features, the BLAS core), which ``verify`` names when a
     robot episode differs in bits."""
-    out = {"nsrmp-bench": __version__}
+    out = {"nsrmp-bench": DATA_WRITER_VERSION}
     for dist in ("pybullet", "numpy", "h5py"):
         try:
             out[dist] = importlib.metadata.version(dist)

@@ -51,6 +51,7 @@ from nsrmp_bench.storage import h5_objects
 
 __all__ = [
     "ARRAY_SPECS",
+    "DATA_WRITER_VERSION",
     "FORMAT",
     "LIBVER",
     "RECORD_SUFFIX",
@@ -69,6 +70,12 @@ __all__ = [
 
 FORMAT: Final = "nsrmp-bench-episodes"
 """Value of the root ``format`` attribute of every shard."""
+
+DATA_WRITER_VERSION: Final = "0.1.0"
+"""What every shard records as ``package_version`` and every manifest as its
+``versions["nsrmp-bench"]``: the nsrmp-bench version whose writer makes these bytes. It
+changes when the writer's bytes change, not with every release of the package, so that a
+release leaves the committed shards and manifests byte for byte (``verify``, ``download``)."""
 
 SUPPORTED_MAJOR: Final = 1
 """The schema major version this reader understands."""

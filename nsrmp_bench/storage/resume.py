@@ -20,11 +20,11 @@ from typing import Any
 
 import h5py
 
-from nsrmp_bench import __version__
 from nsrmp_bench.canonical import sha256_file
 from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import DataIntegrityError, InvalidArgument
 from nsrmp_bench.storage.layout import (
+    DATA_WRITER_VERSION,
     FORMAT,
     RECORD_SUFFIX,
     SHARD_SUFFIX,
@@ -227,7 +227,7 @@ def write_dataset(
     shard_size: int,
     split: str,
     versions: Mapping[str, str] | None = None,
-    package_version: str = __version__,
+    package_version: str = DATA_WRITER_VERSION,
     on_shard: Callable[[ShardRecord], None] | None = None,
 ) -> Manifest:
     """Write instances ``[start, stop)`` into shards, resuming, then the manifest.

@@ -61,7 +61,6 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from nsrmp_bench import __version__
 from nsrmp_bench.canonical import canonical_json
 from nsrmp_bench.dsl.program import load_signatures
 from nsrmp_bench.episode import SCHEMA_VERSION, Episode
@@ -80,6 +79,7 @@ from nsrmp_bench.storage.chunks import (
 from nsrmp_bench.storage.handover import Handover
 from nsrmp_bench.storage.hashing import episode_hash
 from nsrmp_bench.storage.layout import (
+    DATA_WRITER_VERSION,
     FORMAT,
     LIBVER,
     TMP_SUFFIX,
@@ -200,7 +200,7 @@ class ShardWriter:
         stop: int,
         *,
         split: str,
-        package_version: str = __version__,
+        package_version: str = DATA_WRITER_VERSION,
         background: Background = True,
         queue_size: int = 2,
     ) -> None:
@@ -619,7 +619,7 @@ def write_shard(
     episodes: list[Episode] | tuple[Episode, ...],
     *,
     split: str,
-    package_version: str = __version__,
+    package_version: str = DATA_WRITER_VERSION,
 ) -> ShardRecord:
     """Write ``episodes`` (instance indices ``start``, ``start+1`` ...) as one shard."""
     if not episodes:
