@@ -240,11 +240,13 @@ def test_robot_executor_carries_out_the_oracle(smoke_v2_test: Path,
 
 
 def test_what_a_person_says_replaces_the_instruction_and_is_checked(env: TabletopEnv) -> None:
+    from nsrmp_bench.instruction_check import MAX_INSTRUCTION_CHARS
+
     obs, _ = env.reset(options={"instance": 0, "instruction": "Go ahead."})
     assert obs["instruction"] == "Go ahead."
     obs, _ = env.reset(options={"instance": 0})
     assert obs["instruction"] == env.episode.symbolic.instruction.text  # type: ignore[union-attr]
     for value, match in ((None, "NoneType"), ("   ", "whitespace"), (b"go", "bytes"),
-                         ("x" * 1001, "at most 1000"), ("Put it \u2192 there.", "printable")):
+                         ("x" * (MAX_INSTRUCTION_CHARS + 1), f"at most {MAX_INSTRUCTION_CHARS}"), ("Put it \u2192 there.", "printable")):
         with pytest.raises(InvalidArgument, match=match):
             env.reset(options={"instance": 0, "instruction": value})
