@@ -436,6 +436,12 @@ def read_robustness(boards_dir: str | os.PathLike[str]) -> list[Suite]:
     return [read_suite(p) for p in sorted(folder.glob("*.json"))]
 
 
+def _interval_cell(text: str) -> str:
+    """``+0.012 [-0.003, +0.020]`` as the figure above its interval (a narrow column)."""
+    value, sep, interval = text.partition(" [")
+    return _e(value) + (f"<br><small>[{_e(interval)}</small>" if sep else "")
+
+
 def _robustness_page(suites: Sequence[Suite], splits: Sequence[str]) -> str:
     body = [_nav(splits), "<h1>Robustness</h1>",
             '<p class="note">Each model on perturbed copies of a test part (same scenes, '
@@ -447,7 +453,8 @@ def _robustness_page(suites: Sequence[Suite], splits: Sequence[str]) -> str:
     for suite in suites:
         head, rows = suite.table()
         cells = ["<tr>" + "".join(f'<td class="text">{_model_name(c)}</td>' if i == 0
-                                  else f"<td>{_e(c)}</td>" for i, c in enumerate(row))
+                                  else f"<td>{_interval_cell(c)}</td>"
+                                  for i, c in enumerate(row))
                  + "</tr>" for row in rows]
         body += [f"<h2>{_e(suite.split)} (suite seed {suite.seed})</h2>", "<table>",
                  "<thead><tr>" + "".join(f"<th>{_e(h)}</th>" for h in head) + "</tr></thead>",

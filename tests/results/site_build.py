@@ -13,13 +13,16 @@ SITE = BOARDS / "site"
 
 
 def mirror(tmp: Path) -> Path:
-    """tmp/leaderboards/{entries (copies), *.json boards (copies), predictions (link)} and
+    """tmp/leaderboards/{entries, *.json boards, robustness boards (copies), predictions
+    (link)} and
     tmp/reference_model (link); returns tmp/leaderboards."""
     boards = tmp / "leaderboards"
     shutil.copytree(BOARDS / "entries", boards / "entries")
     for board in BOARDS.glob("*.json"):
         shutil.copy(board, boards / board.name)
     (boards / "predictions").symlink_to(BOARDS / "predictions", target_is_directory=True)
+    if (BOARDS / "robustness").is_dir():
+        shutil.copytree(BOARDS / "robustness", boards / "robustness")
     (tmp / "reference_model").symlink_to(REPO / "reference_model", target_is_directory=True)
     return boards
 
@@ -29,7 +32,7 @@ def build_site(tmp: Path, *, figures: bool = True) -> Path:
     redrawn whole as ``nsrmp-bench leaderboard --site-only`` does, or (``figures=False``)
     the pages beside copies of the committed figures."""
     from nsrmp_bench.leaderboard import load_entries
-    from nsrmp_bench.results.site import read_boards, write_site
+    from nsrmp_bench.results.site import read_boards, read_robustness, write_site
     from nsrmp_bench.results.summary import Results
 
     boards = mirror(tmp)
@@ -46,5 +49,6 @@ def build_site(tmp: Path, *, figures: bool = True) -> Path:
     shutil.copytree(SITE / "figures", site / "figures")
     for name in ("paper-tables.md", "paper-tables.tex"):
         shutil.copy(SITE / name, site / name)
-    write_site(read_boards(boards), load_entries(boards / "entries"), site, results)
+    write_site(read_boards(boards), load_entries(boards / "entries"), site, results,
+               read_robustness(boards))
     return site
