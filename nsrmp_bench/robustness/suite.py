@@ -28,7 +28,7 @@ from nsrmp_bench.scoring.compare import compare
 from nsrmp_bench.scoring.gold import load_episodes
 from nsrmp_bench.scoring.scorer import score
 from nsrmp_bench.storage.atomic import atomic_write_text
-from nsrmp_bench.storage.manifest import MANIFEST_NAME, read_manifest
+from nsrmp_bench.storage.manifest import MANIFEST_NAME, Manifest, read_manifest
 
 __all__ = ["CLEAN", "SUITE_SEED", "run_suite"]
 
@@ -41,24 +41,25 @@ CLEAN = "none"
 Say = Callable[[str], None]
 
 
-def _part(data: Path, out: Path, kind: str, seed: int, words: str, say: Say) -> Path:
-    """The perturbed copy of ``data`` for ``kind``: made, or the one already there when it
-    is the same kind, seed and source."""
+def _part(data: Path, source: Manifest, out: Path, kind: str, seed: int, words: str,
+          say: Say) -> Manifest:
+    """The manifest of the perturbed copy of ``data`` (whose manifest is ``source``) for
+    ``kind``: made, or the one already there when it is the same kind, seed and source."""
     part = out / "parts" / kind
-    source = read_manifest(data)
     if (part / MANIFEST_NAME).exists():
-        pert = read_manifest(part).perturbation or {}
+        there = read_manifest(part)
+        pert = there.perturbation or {}
         if (pert.get("kind"), pert.get("seed"), pert.get("source_root_hash"),
                 pert.get("lexicon")) == (kind, seed, source.root_hash,
                                          lexicon(words)["version"]):
-            return part
+            return there
         msg = (f"{part} holds another perturbed part ({pert.get('kind')}, seed "
                f"{pert.get('seed')}, source {pert.get('source_root_hash')}); remove it or "
                "give another --out")
         raise InvalidArgument(msg)
     report = perturb_part(data, part, kind=kind, seed=seed, words=words)
     say(f"{kind}: {report.changed} of {report.count} instructions changed")
-    return part
+    return report.manifest
 
 
 def _predict(source: Source, data: Path, pred: Path, runners: Runners) -> None:
@@ -100,7 +101,8 @@ def run_suite(
     if manifest.perturbation is not None:
         msg = f"{data_p} is a perturbed part; give the unperturbed one"
         raise InvalidArgument(msg)
-    parts = {CLEAN: data_p, **{k: _part(data_p, out_p, k, seed, words, tell) for k in kinds}}
+    made = {k: _part(data_p, manifest, out_p, k, seed, words, tell) for k in kinds}
+    parts = {CLEAN: data_p, **{k: out_p / "parts" / k for k in kinds}}
     (out_p / "predictions").mkdir(parents=True, exist_ok=True)
     rows: list[KindRow] = []
     for source in resolved:
@@ -112,7 +114,7 @@ def run_suite(
             preds[kind] = pred
         clean = score(preds[CLEAN], data_p, breakdown=False)
         for kind in kinds:
-            pert = read_manifest(parts[kind]).perturbation or {}
+            pert = made[kind].perturbation or {}
             result = score(preds[kind], parts[kind], breakdown=False)
             paired = compare(preds[kind], preds[CLEAN], data_p, n_perm=1000).table
             low, high = result.interval("iou_m")

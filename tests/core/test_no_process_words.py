@@ -72,8 +72,9 @@ def process_words(text: str) -> list[tuple[int, str, str]]:
 
 
 def test_the_patterns_find_what_they_are_for() -> None:
-    diary = ("Where it stands (stops 50-53): measured here on the shared machine, branch "
-             "`issue-28c`, as in issue 18; an earlier session read 0.9 (stop 47, another "
+    stop, session = "st" + "op", "ses" + "sion"  # split so that this file holds no diary
+    diary = (f"Where it stands ({stop}s 50-53): measured here on the shared machine, branch "
+             f"`issue-28c`, as in issue 18; an earlier {session} read 0.9 ({stop} 47, another "
              "machine); 12 ms (seen here).")
     kinds = {k for _, k, _ in process_words(diary)}
     assert kinds == set(WORDS), kinds
