@@ -112,7 +112,8 @@ for _entry in (
     ModelEntry("nsrm-v3", Kind.PROGRAM, "neuro-symbolic reference model v3 (gold boxes): "
                "NSRM v2's networks reading what a person says through the language front "
                "end (colour names, typos, words it never saw dropped, sentences that name no "
-               "object ignored, fronted destinations put back)", f"{_HERE}.nsrm3:NSRM3Model"),
+               "object ignored, fronted destinations put back, spatial phrases such as "
+               "\"above\" read as the world's actions)", f"{_HERE}.nsrm3:NSRM3Model"),
     ModelEntry("nmn-v3", Kind.PROGRAM, "NMN+ attention baseline v3 (gold boxes): NMN+ v2's "
                "networks behind NSRM v3's language front end", f"{_HERE}.nmn3:NMN3Model"),
 ):

@@ -6,7 +6,11 @@ rewrites an instruction before the model reads it, word by word, then sentence b
 
 1. **casing and punctuation**: lower case; ``!``, ``?`` and ``;`` end a sentence as ``.``
    does; a missing final stop is added.
-2. **each word the model does not know** is, in this order: a colour name read as the
+2. **English spatial phrases** the model's training instructions did not use are read
+   as the ones they mean (:data:`SPATIAL_WORDS`, :data:`SPATIAL_PHRASES`: ``above`` ->
+   ``on top of``; ``at the left of`` -> ``to the left of``), when the model knows the
+   words of the meaning.
+3. **each word the model does not know** is, in this order: a colour name read as the
    world colour nearest in hue (:mod:`.colour_names`: ``crimson`` -> ``red``); a known
    stem (``leftwards`` -> ``left``) or two known words run together (``rightside``); a
    typo of a known word (the known word at the smallest optimal-string-alignment distance, at most
@@ -15,17 +19,19 @@ rewrites an instruction before the model reads it, word by word, then sentence b
    (``synonyms``: the known word nearest in a sentence-embedding space, if the extra is
    installed and the similarity clears ``synonym_threshold``); else dropped: a word
    the model never saw carries nothing it can use.
-3. **sentences that name no object** ("Thank you.", "That's all.") are dropped: a step
+4. **sentences that name no object** ("Thank you.", "That's all.") are dropped: a step
    always names the object it moves (a word read as a synonym does not count: "many" must
    not make "Many thanks." name "one"). An instruction left with no sentence asks for no
    action, and the model predicts the empty program (nothing moves).
-4. **a fronted destination** ("To the right of the blue cube, put the red block.") goes
+5. **a fronted destination** ("To the right of the blue cube, put the red block.") goes
    back after its clause: a sentence or clause that begins with a spatial preposition and
    holds a comma is read with the part before that comma moved to its end.
 
 What is known in advance (the rest is the model's, learnt): the world's colour and shape
 names and the nouns for "an object" (:data:`OBJECT_WORDS`, to tell a sentence that names
-an object), English spatial prepositions (:data:`PREPOSITIONS`), colour names with their
+an object), English spatial prepositions (:data:`PREPOSITIONS`) and the few that mean one
+of the world's actions or relations in other words (:data:`SPATIAL_WORDS`,
+:data:`SPATIAL_PHRASES`), colour names with their
 RGB values, and, with the ``language`` extra, a general sentence-embedding model.
 """
 
@@ -40,7 +46,8 @@ from nsrmp_bench._optional import require
 from nsrmp_bench.reference_model.language.colour_names import colour_of_name
 from nsrmp_bench.vocabulary import COLOURS, SHAPES
 
-__all__ = ["OBJECT_WORDS", "PREPOSITIONS", "FrontEnd", "Reading"]
+__all__ = ["OBJECT_WORDS", "PREPOSITIONS", "SPATIAL_PHRASES", "SPATIAL_WORDS", "FrontEnd",
+           "Reading"]
 
 OBJECT_WORDS: Final = frozenset({*COLOURS, *SHAPES, "box", "die", "brick", "block", "object",
                                  "thing", "one"})
@@ -50,6 +57,14 @@ PREPOSITIONS: Final = frozenset({"on", "onto", "upon", "atop", "to", "left", "ri
                                  "beside", "above", "over", "at", "leftwards",
                                  "rightwards", "leftward", "rightward"})
 """Spatial prepositions (and the two sides) that begin a fronted destination."""
+SPATIAL_WORDS: Final[dict[str, str]] = {"above": "on top of"}
+"""A spatial word and the phrase of the world's action it means ("put the cube above the
+dice": on top of it; the world has no "above" other than on top)."""
+SPATIAL_PHRASES: Final[dict[tuple[str, ...], tuple[str, ...]]] = {
+    ("at", "the", "left", "of"): ("to", "the", "left", "of"),
+    ("at", "the", "right", "of"): ("to", "the", "right", "of"),
+}
+"""Spatial phrases and the phrase they mean ("the cube at the left of the dice")."""
 _TOKEN: Final = re.compile(r"[a-z]+|[.,!?;]")
 _ENDS: Final = frozenset(".!?;")
 _CLAUSE_STARTS: Final = frozenset({"then", "and", "finally", "lastly", "afterwards"})
@@ -104,6 +119,9 @@ class FrontEnd:
         return hit
 
     def _resolve(self, w: str) -> tuple[str | None, str]:
+        spatial = SPATIAL_WORDS.get(w)
+        if spatial is not None and self.known.issuperset(spatial.split()):
+            return spatial, "spatial"
         colour = colour_of_name(w)
         if colour is not None and colour in self.known:
             return colour, "colour"
@@ -133,7 +151,7 @@ class FrontEnd:
         """``text`` as the model will read it (see the module doc)."""
         changes: list[str] = []
         sentences: list[list[str]] = [[]]
-        for tok in _TOKEN.findall(text.lower()):
+        for tok in self._spatial_phrases(_TOKEN.findall(text.lower()), changes):
             if tok in _ENDS:
                 if sentences[-1]:
                     sentences.append([])
@@ -160,6 +178,24 @@ class FrontEnd:
             kept.append(self._unfront(_without_filler_chunks(s, changes), changes))
         text_out = " . ".join(" ".join(_tidy(s)).replace(_SYNONYM, "") for s in kept)
         return Reading(f"{text_out} ." if text_out else "", tuple(changes))
+
+    def _spatial_phrases(self, tokens: list[str], changes: list[str]) -> list[str]:
+        """``tokens`` with each phrase of :data:`SPATIAL_PHRASES` read as its meaning,
+        where the model knows the meaning's words."""
+        out: list[str] = []
+        i = 0
+        while i < len(tokens):
+            for phrase, meaning in SPATIAL_PHRASES.items():
+                if (tuple(tokens[i:i + len(phrase)]) == phrase
+                        and self.known.issuperset(meaning)):
+                    out.extend(meaning)
+                    changes.append(f"{' '.join(phrase)} -> {' '.join(meaning)}")
+                    i += len(phrase)
+                    break
+            else:
+                out.append(tokens[i])
+                i += 1
+        return out
 
     def _unfront(self, sentence: list[str], changes: list[str]) -> list[str]:
         """A clause that begins with a preposition and a phrase naming an object, then a

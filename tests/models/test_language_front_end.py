@@ -67,3 +67,15 @@ def test_a_synonym_does_not_make_a_sentence_name_an_object() -> None:
         "put the red cube onto the blue dice ."
     assert front.read("Put the red cuboid onto the blue dice.").text == \
         "put the red cube onto the blue dice ."
+
+
+def test_spatial_words_and_phrases_read_as_the_world_s_actions(front: FrontEnd) -> None:
+    said = "Place the cube at the left of the blue dice above the red block."
+    reading = front.read(said)
+    assert reading.text == ("place the cube to the left of the blue dice on top of the red "
+                            "block .")
+    assert "above -> on top of" in reading.changes
+    assert "at the left of -> to the left of" in reading.changes
+    # only where the model knows the meaning's words
+    assert FrontEnd(["put", "the", "cube", "at", "left", "of"]).read(
+        "put the cube at the left of the cube").text == "put the cube at the left of the cube ."
