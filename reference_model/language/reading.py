@@ -4,7 +4,10 @@
 every item's instruction is checked, read by the :class:`~.front_end.FrontEnd` built on
 the model's vocabulary, and the model decodes the reading; an instruction that asks for no
 action (nothing left to read) gets the empty program. The front end's settings are the
-:class:`LanguageSettings` fields of the model's config.
+:class:`LanguageSettings` fields of the model's config. Its perception reads each scene's
+object sizes through the size calibration
+(:mod:`~nsrmp_bench.reference_model.program.size_calibration`, the
+:class:`~nsrmp_bench.reference_model.program.size_calibration.SizeCalibration` fields).
 """
 
 from __future__ import annotations
@@ -13,11 +16,18 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import torch
+
 from nsrmp_bench.instruction_check import check_instruction
 from nsrmp_bench.reference_model.language.front_end import FrontEnd, Reading
 from nsrmp_bench.reference_model.program.data import ProgramData
 from nsrmp_bench.reference_model.program.inference import Decoded, Oracle
 from nsrmp_bench.reference_model.program.run import ProgramModelBase
+from nsrmp_bench.reference_model.program.size_calibration import (
+    SizeCalibration,
+    SizePrior,
+    calibrated_sizes,
+)
 
 __all__ = ["LanguageSettings", "ReadingModel", "build_front_end"]
 
@@ -53,12 +63,23 @@ class ReadingModel(ProgramModelBase):
     """A program model whose instructions pass the language front end first."""
 
     _front_end: FrontEnd | None = None
+    _size_prior: SizePrior | None = None
 
     def front_end(self) -> FrontEnd:
         """The front end over this model's vocabulary (made once)."""
         if self._front_end is None:
             self._front_end = build_front_end(self.vocab.words, self.config)
         return self._front_end
+
+    def perceived_sizes(self, sizes: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        """The sizes at each scene's calibrated scale (where the config has a size prior)."""
+        cfg = self.config
+        if not isinstance(cfg, SizeCalibration) or not cfg.size_calibration \
+                or not cfg.size_prior:
+            return sizes
+        if self._size_prior is None:
+            self._size_prior = SizePrior.from_values(cfg.size_prior)
+        return calibrated_sizes(sizes, mask, self._size_prior, cfg)
 
     def readings(self, items: Sequence[Mapping[str, Any]]) -> list[Reading]:
         """How the model reads each item's instruction."""

@@ -10,6 +10,7 @@ from typing import ClassVar
 from nsrmp_bench.reference_model.contract import ModelConfig
 from nsrmp_bench.reference_model.language.reading import LanguageSettings, ReadingModel
 from nsrmp_bench.reference_model.nmn2 import NMN2Config, NMN2Model
+from nsrmp_bench.reference_model.program.size_calibration import SizeCalibration
 
 __all__ = ["MODEL_ID", "NMN3Config", "NMN3Model"]
 
@@ -17,8 +18,9 @@ MODEL_ID = "nmn-v3"
 
 
 @dataclass(frozen=True)
-class NMN3Config(NMN2Config, LanguageSettings):
-    """NMN+ v2's configuration and the language front end's settings."""
+class NMN3Config(NMN2Config, LanguageSettings, SizeCalibration):
+    """NMN+ v2's configuration, the language front end's settings and the size
+    calibration's."""
 
 
 class NMN3Model(ReadingModel, NMN2Model):

@@ -11,6 +11,7 @@ from typing import ClassVar
 from nsrmp_bench.reference_model.contract import ModelConfig
 from nsrmp_bench.reference_model.language.reading import LanguageSettings, ReadingModel
 from nsrmp_bench.reference_model.nsrm2 import NSRM2Config, NSRM2Model
+from nsrmp_bench.reference_model.program.size_calibration import SizeCalibration
 
 __all__ = ["MODEL_ID", "NSRM3Config", "NSRM3Model"]
 
@@ -18,8 +19,9 @@ MODEL_ID = "nsrm-v3"
 
 
 @dataclass(frozen=True)
-class NSRM3Config(NSRM2Config, LanguageSettings):
-    """NSRM v2's configuration and the language front end's settings."""
+class NSRM3Config(NSRM2Config, LanguageSettings, SizeCalibration):
+    """NSRM v2's configuration, the language front end's settings and the size
+    calibration's."""
 
 
 class NSRM3Model(ReadingModel, NSRM2Model):

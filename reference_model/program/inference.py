@@ -17,12 +17,13 @@ reads it.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import torch
 from numpy.typing import NDArray
+from torch import Tensor
 
 from nsrmp_bench.dsl.actions import MAX_STACK
 from nsrmp_bench.geometry.camera import Camera
@@ -82,8 +83,10 @@ class Decoded:
 
 @torch.no_grad()
 def decode(model: StepModel, splitter: Splitter, data: ProgramData, rule: ActionRule,
-           oracle: Oracle | None = None, batch_size: int = 64) -> Decoded:
-    """Run the model over every episode of ``data``."""
+           oracle: Oracle | None = None, batch_size: int = 64,
+           perceived: Callable[[Tensor, Tensor], Tensor] | None = None) -> Decoded:
+    """Run the model over every episode of ``data`` (``perceived``: the sizes (B, N, 2) the
+    perception reads, from the estimated ones and the mask; default: those)."""
     model.eval()
     splitter.eval()
     oracle = oracle or Oracle()
@@ -95,7 +98,8 @@ def decode(model: StepModel, splitter: Splitter, data: ProgramData, rule: Action
                 else splitter.cuts(batch.tokens))
         pieces = [[tok[a:b] for a, b in zip([0, *c], [*c, len(tok)], strict=True)]
                   for tok, c in zip(batch.tokens, cuts, strict=True)]
-        feats = model.features(batch.crops, batch.mask, batch.sizes)
+        sizes = batch.sizes if perceived is None else perceived(batch.sizes, batch.mask)
+        feats = model.features(batch.crops, batch.mask, sizes)
         n_obj = batch.mask.shape[1]
         centres = [data.states[r].centres.copy() for r in rows]
         previous = torch.zeros((len(rows), n_obj))

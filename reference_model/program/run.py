@@ -244,12 +244,18 @@ class ProgramModelBase(ProgramPredictionModel):
         """Per item, its decoded steps (``oracle``: the diagnosis's gold substitutions)."""
         return self._decode(items, oracle)[1].steps
 
+    def perceived_sizes(self, sizes: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        """The object sizes (B, N, 2) the perception reads at prediction: the estimated
+        ones (a model with a size calibration rescales them)."""
+        del mask
+        return sizes
+
     def _decode(self, items: Sequence[dict[str, Any]],
                 oracle: Oracle | None = None) -> tuple[ProgramData, Decoded]:
         self.set_threads()
         data = program_data(list(items), self.vocab, self.model.rule)
         return data, decode(self.model.step, self.model.splitter, data, self.model.rule,
-                            oracle)
+                            oracle, perceived=self.perceived_sizes)
 
 
 def selection_items(
