@@ -47,11 +47,11 @@ from typing import Any
 
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.leaderboard import COLUMNS, Entry
+from nsrmp_bench.ranks import RANK_RULE, shared_ranks
 from nsrmp_bench.results.colours import model_styles
 from nsrmp_bench.results.figures import CATEGORY_BARS, FIGURES, caption, figure_names
 from nsrmp_bench.results.model_cards import CARD_FIELDS, NOT_STATED, model_card
 from nsrmp_bench.results.protocols import PROTOCOLS, Protocol, is_reference, protocol_of
-from nsrmp_bench.results.ranks import RANK_RULE, shared_ranks
 from nsrmp_bench.results.robustness_table import Suite, read_suite
 from nsrmp_bench.results.summary import Results
 from nsrmp_bench.scoring.metrics import METRICS

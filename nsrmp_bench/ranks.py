@@ -7,6 +7,9 @@ shares the leader's rank, marked "=", and the first entry that does not overlap 
 leader starts a new group at its own position. Comparing with the leader, not with the
 previous entry, keeps a long chain of small steps from tying the whole board. Needs only
 the standard library (the Markdown boards and the site both use it).
+
+A row's ``kind`` says whether it is a reference: :data:`REFERENCE_KIND`, the kind every
+registered baseline's row has (:func:`is_reference`).
 """
 
 from __future__ import annotations
@@ -15,9 +18,16 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from nsrmp_bench.results.protocols import is_reference
+__all__ = ["RANK_RULE", "REFERENCE_KIND", "is_reference", "shared_ranks"]
 
-__all__ = ["RANK_RULE", "shared_ranks"]
+REFERENCE_KIND = "baseline"
+"""The ``kind`` of a reference row (a registered baseline's): not ranked."""
+
+
+def is_reference(kind: str) -> bool:
+    """Whether a row of this ``kind`` is a reference (a registered baseline)."""
+    return kind == REFERENCE_KIND
+
 
 RANK_RULE = ("Ranks: the reference rows (oracle, noop, random) are bounds and are not "
              "ranked. The other entries are ranked by IoU-M; an entry whose 95% interval "
