@@ -104,8 +104,10 @@ class ProgramModelPolicy:
 
         model = load_model(model_id)
         if not isinstance(model, ProgramPredictionModel):
-            msg = (f"policy {model_id!r} is a {model.kind.value} model; the closed loop "
-                   "issues programs, so name a program model (nsrm, nmn, nsrm-v1, ...)")
+            msg = (f"policy {model_id!r}: its class {type(model).__name__} "
+                   f"({model.kind.value} model) has no programs(items); the closed loop issues "
+                   "programs: name a program model (nsrm, nmn, nsrm-v1, ...), or make the "
+                   "model subclass ProgramPredictionModel")
             raise InvalidArgument(msg)
         self.model = model
         self.env = env.unwrapped
