@@ -33,7 +33,7 @@ from nsrmp_bench.storage.layout import DATA_WRITER_VERSION
 from nsrmp_bench.storage.manifest import Manifest
 from nsrmp_bench.storage.records import ShardRecord
 from nsrmp_bench.storage.resume import scan_output, write_manifest
-from nsrmp_bench.storage.writer import Background, ShardWriter
+from nsrmp_bench.storage.writer import Background, shard_writer
 
 if TYPE_CHECKING:
     from nsrmp_bench.generators.world.realise import Placer
@@ -143,12 +143,12 @@ def generate_shard(
 
     The task carries the spec itself (not its id), so a custom spec file runs on any engine,
     remote workers included. The shard writer's ``*.tmp`` + rename makes it safe to run
-    again after a worker died. ``writer_mode`` is the :class:`ShardWriter`'s ``background``
+    again after a worker died. ``writer_mode`` is the shard writer's ``background``
     (:func:`shard_writer_mode`).
     """
     world = _world(spec.image)
     stats = AttemptLog()
-    with ShardWriter(out_dir, start, stop, split=f"{spec.id}/{part}",
+    with shard_writer(out_dir, start, stop, split=f"{spec.id}/{part}",
                      package_version=DATA_WRITER_VERSION, background=writer_mode) as writer:
         for i in range(start, stop):
             writer.add(make_episode(spec, part, i, world, stats))

@@ -1,33 +1,33 @@
-"""nsrmp-bench: dataset and benchmark for language-guided robot manipulation."""
+"""nsrmp-bench: dataset and benchmark for language-guided robot manipulation.
+
+The package root is the users' front door and nothing else: ``__version__`` (from
+:mod:`nsrmp_bench._version`: ``from nsrmp_bench import __version__`` imports no other
+module) and three names imported on first use: ``open`` (read data,
+:func:`nsrmp_bench.storage.reader.open`), ``score`` (score predictions,
+:func:`nsrmp_bench.scoring.scorer.score`) and ``load_model`` (a learned model, the torch
+extra: :func:`nsrmp_bench.reference_model.registry.load_model`). No module of the package
+imports the root (``tests/core/test_import_graph.py``), so these names put no arrow between
+the layers. The Gymnasium environment registers when :mod:`nsrmp_bench.envs` is imported.
+"""
 
 from __future__ import annotations
 
-import sys
 from typing import TYPE_CHECKING
+
+from nsrmp_bench._version import __version__
 
 if TYPE_CHECKING:  # type checkers see the real signature; at run time it is lazy
     from nsrmp_bench.reference_model.registry import load_model as load_model
     from nsrmp_bench.scoring.scorer import score as score
     from nsrmp_bench.storage.reader import open as open
 
-__version__ = "0.2.0"
-
 __all__ = ["__version__", "load_model", "open", "score"]
 """The top-level names: ``open`` (read data), ``score`` (score predictions) and
 ``load_model`` (a learned model; the torch extra), imported on first use."""
 
-if "gymnasium" in sys.modules:
-    # ``import gymnasium; import nsrmp_bench`` registers nsrmp_bench/Tabletop-v0, so
-    # ``gymnasium.register_envs(nsrmp_bench)`` works as for other environment packages.
-    # Importing Gymnasium only for this would cost every import ~0.3 s; without it, use
-    # ``import nsrmp_bench.envs`` or the id "nsrmp_bench.envs:nsrmp_bench/Tabletop-v0".
-    from nsrmp_bench.envs import register_envs as _register_envs
-
-    _register_envs()
-
 
 def __getattr__(name: str) -> object:
-    """Lazy re-exports: ``nsrmp_bench.open`` imports the storage reader on first use."""
+    """Names imported on first use: ``nsrmp_bench.open`` imports the storage reader then."""
     if name == "open":
         from nsrmp_bench.storage.reader import open as open_episodes
 
@@ -45,5 +45,5 @@ def __getattr__(name: str) -> object:
 
 
 def __dir__() -> list[str]:
-    """The lazy exports too (``dir(nsrmp_bench)``, tab completion)."""
+    """The names imported on first use too (``dir(nsrmp_bench)``, tab completion)."""
     return sorted({*__all__, *(n for n in globals() if n.startswith("__"))})

@@ -36,8 +36,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from nsrmp_bench import __version__
 from nsrmp_bench._optional import require
+from nsrmp_bench._version import __version__
 from nsrmp_bench.errors import InvalidArgument, SubmissionError
 from nsrmp_bench.leaderboard import COLUMNS
 from nsrmp_bench.release import pack

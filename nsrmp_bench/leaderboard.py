@@ -22,7 +22,7 @@ from typing import Any
 
 from nsrmp_bench.canonical import canonical_json
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.results.ranks import RANK_RULE, shared_ranks
+from nsrmp_bench.ranks import RANK_RULE, shared_ranks
 from nsrmp_bench.scoring.protocol_fields import ProtocolFields, manifest_mismatch, part_root_hash
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score

@@ -3,6 +3,13 @@ weights, written atomically and byte-deterministically, plus a model card (JSON)
 
 Shipped checkpoints are package data in ``reference_model/checkpoints/<model id>.pt`` with
 ``<model id>.card.json`` beside them.
+
+Every torch file is read by :func:`read_torch_file`: ``torch.load(weights_only=True)``, which
+rebuilds tensors, numbers, strings and containers and nothing else, so a crafted file (a
+pickle whose ``__reduce__`` calls a function) is refused instead of running code. The
+project's checkpoints and resume files hold only those; :data:`SAFE_GLOBALS` is the
+allow-list of the project's own types a file may hold besides (none today: a type added to
+a checkpoint goes there, with a test).
 """
 
 from __future__ import annotations
@@ -10,6 +17,8 @@ from __future__ import annotations
 import io
 import json
 import os
+import pickle
+import re
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -18,9 +27,32 @@ import torch
 
 from nsrmp_bench.errors import InvalidArgument
 
-__all__ = ["load_checkpoint", "save_checkpoint", "shipped_checkpoint", "write_card"]
+__all__ = ["SAFE_GLOBALS", "load_checkpoint", "read_torch_file", "save_checkpoint",
+           "shipped_checkpoint", "write_card"]
 
 FORMAT = "nsrmp-bench-checkpoint"
+
+SAFE_GLOBALS: tuple[type, ...] = ()
+"""The project's own types a checkpoint may hold besides tensors, numbers, strings and
+containers (``torch.serialization.safe_globals``)."""
+
+
+def read_torch_file(path: Path, what: str = "checkpoint") -> Any:
+    """``torch.load`` of ``path`` with ``weights_only=True`` (on the CPU); a file that holds
+    anything but tensors, numbers, strings, containers and :data:`SAFE_GLOBALS` is refused
+    with :class:`InvalidArgument`, naming the file and the fix, and nothing in it runs."""
+    try:
+        with torch.serialization.safe_globals(list(SAFE_GLOBALS)):
+            return torch.load(path, weights_only=True, map_location="cpu")
+    except pickle.UnpicklingError as exc:
+        found = re.search(r"Unsupported global: GLOBAL (\S+)", str(exc))
+        detail = f"it names {found.group(1)}" if found else str(exc).strip().split("\n")[0]
+        msg = (f"{what} {str(path)!r} holds objects other than tensors, numbers, strings and "
+               f"containers ({detail}); it is refused because loading it could run "
+               "code. Use a checkpoint written by `nsrmp-bench train` (or save_checkpoint: "
+               "plain state dicts), or retrain; if the file is yours and holds a type of this "
+               "project, add that type to nsrmp_bench.reference_model.checkpoints.SAFE_GLOBALS")
+        raise InvalidArgument(msg) from exc
 
 
 def save_checkpoint(path: Path, model_id: str, config: dict[str, Any], vocab: list[str],
@@ -48,7 +80,9 @@ def load_checkpoint(path: str | Path, model_id: str) -> dict[str, Any]:
         msg = f"checkpoint {str(p)!r} does not exist; pass the .pt file a training run wrote"
         raise InvalidArgument(msg)
     try:
-        payload: dict[str, Any] = torch.load(p, weights_only=False, map_location="cpu")
+        payload: dict[str, Any] = read_torch_file(p)
+    except InvalidArgument:
+        raise
     except Exception as exc:
         msg = f"checkpoint {str(p)!r} cannot be read ({exc}); it is not a torch checkpoint"
         raise InvalidArgument(msg) from exc

@@ -14,7 +14,6 @@ The torch half of the contract (loading, training, inference) is
 from __future__ import annotations
 
 import dataclasses
-import enum
 import json
 import types
 import typing
@@ -22,34 +21,11 @@ from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar, TypeVar
 
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.predictors import Kind  # the kind of every predictor (one registry)
 
 __all__ = ["CONFIGS", "Kind", "ModelConfig", "parse_value"]
 
 C = TypeVar("C", bound="ModelConfig")
-
-
-class Kind(enum.Enum):
-    """What a learned model's inference makes, and so the verb that runs it."""
-
-    PROGRAM = "program"  # a predictions file with a grounded program (NSRM, NMN+)
-    DENSE = "dense"  # a predictions file of pick and place points, no program
-    DETECTOR = "detector"  # a detections file (``nsrmp-bench detect``)
-    RECONSTRUCTION = "reconstruction"  # images over a predictions file (``reconstruct``)
-
-    @property
-    def writes_predictions(self) -> bool:
-        """Whether ``nsrmp-bench predict`` runs models of this kind."""
-        return self in (Kind.PROGRAM, Kind.DENSE)
-
-    def use_after_training(self, name: str, test: str, checkpoint: str) -> str:
-        """The command that runs a freshly trained model of this kind."""
-        if self is Kind.DETECTOR:
-            return f"nsrmp-bench detect --data {test} --out D.jsonl --checkpoint {checkpoint}"
-        if self is Kind.RECONSTRUCTION:
-            return (f"nsrmp-bench reconstruct P.jsonl --data {test} --out DIR "
-                    f"--checkpoint {checkpoint}")
-        return (f"nsrmp-bench predict {name} --data {test} --out P.jsonl "
-                f"--checkpoint {checkpoint}")
 
 
 CONFIGS: dict[str, type[ModelConfig]] = {}

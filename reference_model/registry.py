@@ -3,7 +3,11 @@
 Adding a model is adding its sub-package (a :class:`~.base.LearnedModel` subclass with its
 config, network, loss and inference) and one entry here (or, outside the package,
 :func:`register`). An entry names the model's class as ``module:Class`` and everything
-imports lazily, so listing the models and their kinds needs no torch.
+imports lazily, so listing the models and their kinds needs no torch. :func:`register`
+puts the entry in the one registry of predictors too (:data:`nsrmp_bench.predictors.PREDICTORS`,
+beside the baselines), from which ``predict``, the boards and the closed loop's policies
+follow by the entry's kind. The wheel finds a new sub-package by itself (``setup.py``
+discovers every package under ``reference_model/``).
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.predictors import register_predictor
 from nsrmp_bench.reference_model.contract import Kind
 from nsrmp_bench.versioned_ids import resolve_id
 
@@ -64,10 +69,16 @@ MODELS: dict[str, ModelEntry] = {}
 
 
 def register(entry: ModelEntry) -> ModelEntry:
-    """Add ``entry`` to :data:`MODELS` (an id registered twice is an error)."""
+    """Add ``entry`` to :data:`MODELS` and to the predictors of
+    :mod:`nsrmp_bench.predictors` (an id registered twice is an error)."""
     if entry.id in MODELS and MODELS[entry.id] != entry:
         msg = f"model id {entry.id!r} is registered already; give the new model a new id"
         raise InvalidArgument(msg)
+    if entry.kind is Kind.BASELINE:
+        msg = (f"model {entry.id!r} is registered with kind baseline; a learned model is a "
+               "program, dense, detector or reconstruction model")
+        raise InvalidArgument(msg)
+    register_predictor(entry)
     MODELS[entry.id] = entry
     return entry
 

@@ -22,6 +22,8 @@ import torch
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from torch import Tensor, nn
 
+from nsrmp_bench.reference_model.checkpoints import read_torch_file
+
 __all__ = ["Stage", "TrainState", "train_stages"]
 
 CHECKPOINT = "last.pt"
@@ -82,7 +84,7 @@ def train_stages(model: nn.Module, stages: Sequence[Stage], out: Path, *, seed: 
     ckpt = out / CHECKPOINT
     resume: dict[str, Any] | None = None
     if ckpt.exists():
-        resume = torch.load(ckpt, weights_only=False)
+        resume = read_torch_file(ckpt, "resume file")
         model.load_state_dict(resume["model"])
         state = TrainState(**resume["state"])
     log = (out / LOG).open("a", encoding="utf-8")

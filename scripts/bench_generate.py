@@ -12,10 +12,10 @@ they do there.)
 
 "before" is the generator as it was: ``World(lean_reset=False)`` (every instance reloads
 the table, the Panda and their visuals from the shipped files) and
-``ShardWriter(background=False)`` (hash, compress and write in the generating thread).
+``shard_writer(background=False)`` (hash, compress and write in the generating thread).
 "after" is what ``generate`` runs now: ``World()`` (teleport instances begin with the
 resting arm's collision hulls reduced to their bounding points, ``World.begin(...,
-robot_collision=False)``) and ``ShardWriter(background="process")`` (hash, compress and
+robot_collision=False)``) and ``shard_writer(background="process")`` (hash, compress and
 write in a child process forked for the shard, the images handed over through shared
 memory, :mod:`~nsrmp_bench.storage.handover`: what ``generate`` does with one worker on a
 machine of two cores or more, ``generate.shard_writer_mode``), whose lean instances run in
@@ -116,7 +116,7 @@ from nsrmp_bench.storage.chunks import precompress
 from nsrmp_bench.storage.handover import Handover
 from nsrmp_bench.storage.hashing import episode_hash
 from nsrmp_bench.storage.prefix_deflate import PrefixDeflater
-from nsrmp_bench.storage.writer import Background, ShardWriter
+from nsrmp_bench.storage.writer import Background, shard_writer
 
 ORIGINAL_S_PER_SAMPLE = 1.02
 """The original generator, 1024x768, one core of a reference machine (see the module doc)."""
@@ -192,7 +192,7 @@ def end_to_end(spec: SplitSpec, part: str, n: int, timed: TimedWorld,
     time counts the writer thread or process (and forked children) too."""
     with tempfile.TemporaryDirectory(prefix="bench-generate-") as out:
         wall, cpu = time.perf_counter(), cpu_s()
-        with ShardWriter(out, 0, n, split=f"{spec.id}/{part}", background=background) as w:
+        with shard_writer(out, 0, n, split=f"{spec.id}/{part}", background=background) as w:
             opened = time.perf_counter()
             for i in range(n):
                 w.add(timed.episode(spec, part, i))
@@ -376,7 +376,7 @@ def writer_costs(spec: SplitSpec, part: str, n: int, repeat: int,
         with tempfile.TemporaryDirectory(prefix="bench-writer-") as out, \
                 compression_resumed(resumed):
             start = time.process_time()
-            with ShardWriter(out, 0, n, split=f"{spec.id}/{part}", background=False) as w:
+            with shard_writer(out, 0, n, split=f"{spec.id}/{part}", background=False) as w:
                 for episode in episodes:
                     w.add(episode)
                 w.commit()

@@ -17,13 +17,16 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import torch
 
+from nsrmp_bench.reference_model.checkpoints import read_torch_file
 from nsrmp_bench.reference_model.contract import parse_value
 from nsrmp_bench.reference_model.dense import val_accuracy
 from nsrmp_bench.reference_model.dense.inputs import DenseInputs, encode_part
@@ -40,9 +43,22 @@ def _encoded(data: Path, cache: Path, scale: int) -> tuple[DenseInputs, DenseInp
                                    targets=True, workers=2)
         val, _ = encode_part(data / "val", vocab, scale, single_step=True, targets=True,
                              limit=500)
-        torch.save({"train": train, "val": val, "vocab": vocab.to_list()}, path)
-    payload = torch.load(path, weights_only=False)
-    return payload["train"], payload["val"], len(Vocabulary(tuple(payload["vocab"])))
+        torch.save({"train": _plain(train), "val": _plain(val), "vocab": vocab.to_list()},
+                   path)
+    payload = read_torch_file(path, "cache file")
+    return (_inputs(payload["train"]), _inputs(payload["val"]),
+            len(Vocabulary(tuple(payload["vocab"]))))
+
+
+def _plain(inputs: DenseInputs) -> dict[str, object]:
+    """The inputs as tensors, numbers and containers (read back with weights_only=True)."""
+    fields = {f.name: getattr(inputs, f.name) for f in dataclasses.fields(inputs)}
+    return {**fields, "boxes": [torch.from_numpy(b) for b in inputs.boxes]}
+
+
+def _inputs(plain: dict[str, Any]) -> DenseInputs:
+    return DenseInputs(**{**plain, "boxes": [b.numpy() for b in plain["boxes"]],
+                          "image_size": tuple(plain["image_size"])})
 
 
 def main() -> None:

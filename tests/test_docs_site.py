@@ -11,6 +11,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -81,6 +82,17 @@ def _links(browser: Any) -> list[str]:
     return found
 
 
+def _open(browser: Any, page: Path) -> None:
+    """Load ``page`` and wait until its document is complete: loading the page the browser
+    is on already can return before the reloaded document is there."""
+    browser.get("about:blank")
+    browser.get(page.as_uri())
+    deadline = time.monotonic() + 10.0
+    while (browser.execute_script("return document.readyState") != "complete"
+           and time.monotonic() < deadline):
+        time.sleep(0.05)
+
+
 def _ids(browser: Any) -> set[str]:
     return set(browser.execute_script(
         "return Array.from(document.querySelectorAll('[id]')).map(e => e.id);"))
@@ -95,7 +107,7 @@ def test_every_internal_link_resolves_in_chromium(site: Path, browser: Any) -> N
         if page in seen:
             continue
         seen.add(page)
-        browser.get(page.as_uri())
+        _open(browser, page)
         for href in _links(browser):
             url = urlparse(href)
             if url.scheme != "file":
@@ -113,14 +125,14 @@ def test_every_internal_link_resolves_in_chromium(site: Path, browser: Any) -> N
     ids: dict[Path, set[str]] = {}
     for page, fragment, target in anchors:
         if target not in ids:
-            browser.get(target.as_uri())
+            _open(browser, target)
             ids[target] = _ids(browser)
         if unquote(fragment) not in ids[target]:
             broken.append(f"{page.relative_to(site)} -> {target.relative_to(site)}#{fragment}")
     assert len(seen) >= 20, sorted(str(p.relative_to(site)) for p in seen)
     assert not broken, "broken internal links:\n" + "\n".join(sorted(set(broken)))
 
-    browser.get(start.as_uri())
+    _open(browser, start)
     loaded = browser.execute_script(
         "return Array.from(document.images).every(i => i.complete && i.naturalWidth > 0);")
     assert loaded, "an image of the home page did not load"

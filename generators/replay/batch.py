@@ -19,6 +19,7 @@ import numpy as np
 
 from nsrmp_bench.engine import Engine, TaskReport, in_task_order, open_engine
 from nsrmp_bench.episode import Episode
+from nsrmp_bench.episode_views import episode_camera, episode_initial_state
 from nsrmp_bench.errors import InvalidArgument, NSRMPError
 from nsrmp_bench.generators.replay.episode import (
     PredictedPlacement,
@@ -29,7 +30,6 @@ from nsrmp_bench.generators.replay.episode import (
 from nsrmp_bench.generators.replay.plan import ReplayPlan
 from nsrmp_bench.generators.robot.profiles import get_profile
 from nsrmp_bench.generators.world.world import World
-from nsrmp_bench.geometry.projection import episode_camera, episode_initial_state
 from nsrmp_bench.scoring.submission import Prediction
 from nsrmp_bench.storage.atomic import atomic_write_bytes
 

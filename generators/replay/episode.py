@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from nsrmp_bench.dsl.actions import target_pose
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.episode import Episode, Trajectory
+from nsrmp_bench.episode_views import episode_camera, episode_initial_state
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.generators.replay.plan import (
     SOURCES,
@@ -45,7 +46,6 @@ from nsrmp_bench.generators.robot.recorder import (
 from nsrmp_bench.generators.world.world import SettleResult, World
 from nsrmp_bench.geometry.boxes import box_centres
 from nsrmp_bench.geometry.camera import Camera
-from nsrmp_bench.geometry.projection import episode_camera, episode_initial_state
 from nsrmp_bench.scene import Pose, Scene, yaw_quaternion
 from nsrmp_bench.scoring.submission import Prediction
 from nsrmp_bench.vocabulary import TABLE_TOP_Z

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from nsrmp_bench.episode import Episode
-from nsrmp_bench.geometry.projection import episode_boxes, episode_positions
+from nsrmp_bench.episode_views import episode_boxes, episode_positions
 from nsrmp_bench.scoring.submission import Prediction
 
 __all__ = ["noop_prediction"]

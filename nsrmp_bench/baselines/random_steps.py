@@ -15,8 +15,8 @@ from nsrmp_bench.dsl.actions import feasible_steps
 from nsrmp_bench.dsl.executor import execute_grounded
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.episode import Episode
+from nsrmp_bench.episode_views import episode_initial_state
 from nsrmp_bench.errors import InfeasibleStep
-from nsrmp_bench.geometry.projection import episode_initial_state
 from nsrmp_bench.scoring.submission import Prediction
 
 __all__ = ["random_prediction"]

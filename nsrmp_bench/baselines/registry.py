@@ -1,5 +1,8 @@
 """The non-learned baselines by id, and running one over a split into a predictions file.
 
+Each is registered in the one registry of predictors (:mod:`nsrmp_bench.predictors`) as
+kind ``baseline``.
+
 Each baseline maps (episode, Generator) to a :class:`Prediction`; the Generator is derived
 per instance from (seed, instance id), so an instance's prediction does not depend on
 which other instances are predicted or in what order.
@@ -19,6 +22,7 @@ from nsrmp_bench.baselines.oracle import oracle_prediction
 from nsrmp_bench.baselines.random_steps import random_prediction
 from nsrmp_bench.episode import Episode, SymbolicEpisode
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.predictors import Kind, register_predictor
 from nsrmp_bench.scoring.protocol_fields import GOLD_BOXES, ProtocolFields
 from nsrmp_bench.scoring.submission import Prediction, SubmissionHeader, write_submission
 from nsrmp_bench.scoring.version import SCORER_ID
@@ -43,6 +47,16 @@ class Baseline:
     seeded: bool = False
     """Whether its predictions depend on the seed (then the protocol's ``seeds``)."""
 
+    @property
+    def kind(self) -> Kind:
+        """Every baseline's kind (:mod:`nsrmp_bench.predictors`)."""
+        return Kind.BASELINE
+
+    @property
+    def label(self) -> str:
+        """Nothing is said beside a baseline's id."""
+        return ""
+
     def protocol(self, seed: int, manifest_root_hash: str) -> ProtocolFields:
         """Its protocol fields on the part with root hash ``manifest_root_hash``."""
         return ProtocolFields(
@@ -66,7 +80,10 @@ BASELINES: dict[str, Baseline] = {
                  supervision="none (not learned); reads the number of gold steps", seeded=True),
     )
 }
-"""Baseline id (``name-vN``) -> baseline."""
+"""Baseline id (``name-vN``) -> baseline; each is a predictor of kind ``baseline`` too."""
+
+for _baseline in BASELINES.values():
+    register_predictor(_baseline)
 
 
 def get_baseline(name: str) -> Baseline:

@@ -16,9 +16,10 @@ from nsrmp_bench.dsl.actions import target_pose
 from nsrmp_bench.dsl.executor import execute_grounded
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.episode import Episode
+from nsrmp_bench.episode_views import episode_camera, episode_initial_state
 from nsrmp_bench.errors import InfeasibleStep
 from nsrmp_bench.geometry.boxes import box_centres
-from nsrmp_bench.geometry.projection import episode_camera, episode_initial_state, states_boxes
+from nsrmp_bench.geometry.projection import states_boxes
 from nsrmp_bench.scene import Scene, State
 from nsrmp_bench.scoring.submission import Prediction
 

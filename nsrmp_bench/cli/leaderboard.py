@@ -9,10 +9,11 @@ Scores every entry of ``leaderboards/entries/`` with the public scorer and write
 ``leaderboards/<split>-<part>.md`` and ``.json``, then the static site
 ``leaderboards/site/`` (open ``leaderboards/site/index.html`` from disk): one sortable page
 per board, a model card per entry, ``summary.json``, the generalisation figures (the
-README's) and the paper's tables, with copies of the predictions files and model cards it
-links (the folder publishes alone). The site needs the ``plot`` extra; ``--no-site`` skips
-it, and ``--site-only`` redraws the site from the committed boards and
-``site/summary.json`` without data or scoring::
+README's) and the paper's tables, with copies of the model cards it links; its pages link
+the predictions files in ``leaderboards/predictions/`` (publish ``leaderboards/`` whole;
+``--site DIR`` outside it copies them into ``DIR/predictions/``). The site needs the
+``plot`` extra; ``--no-site`` skips it, and ``--site-only`` redraws the site from the
+committed boards and ``site/summary.json`` without data or scoring::
 
     nsrmp-bench leaderboard --site-only
 """

@@ -14,8 +14,8 @@ import os
 import sys
 from collections.abc import Iterator, Sequence
 
-from nsrmp_bench import __version__
 from nsrmp_bench._optional import missing_extra
+from nsrmp_bench._version import __version__
 from nsrmp_bench.engine.signals import EXIT_SIGTERM, Terminated, sigterm_as_interrupt
 from nsrmp_bench.errors import NSRMPError
 

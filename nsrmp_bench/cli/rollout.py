@@ -39,8 +39,10 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
-    parser.add_argument("policy", help="oracle, noop, nsrm, nmn, dense, or module:function "
-                                       "(a callable policy(observation) -> action)")
+    parser.add_argument("policy", help="a registered predictor (oracle, noop, random, nsrm, "
+                                       "nmn, dense, or an id such as nsrm-v2), or "
+                                       "module:function (a callable policy(observation) -> "
+                                       "action)")
     parser.add_argument("--data", type=Path, default=None,
                         help="a generated part directory (or a split root with --part)")
     parser.add_argument("--split", default=None,
@@ -67,13 +69,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Roll out, write the predictions and the report."""
-    from nsrmp_bench.envs.policies import BOX_READING, DENSE_POLICIES, check_policy
+    from nsrmp_bench.envs.policies import (
+        check_policy,
+        policy_predictor,
+        reads_boxes,
+        reads_gold_boxes,
+    )
     from nsrmp_bench.envs.rollout import RolloutConfig, rollout_part
 
     check_policy(args.policy)
-    if args.boxes is None and args.policy in BOX_READING | DENSE_POLICIES:
+    if args.boxes is None and reads_boxes(args.policy):
         args.boxes = "gold"  # these models read boxes; the gold ones unless told
-    if args.policy in BOX_READING and args.boxes != "gold":
+    if reads_gold_boxes(args.policy) and args.boxes != "gold":
         msg = (f"policy {args.policy!r} issues DSL steps over the scene's objects, so it reads "
                f"the gold boxes (scene order); --boxes {args.boxes} gives detections in score "
                "order: drop --boxes, or roll out 'dense' on detected boxes")
@@ -124,10 +131,9 @@ def run(args: argparse.Namespace) -> int:
                   f"({args.executor} executor) in {engine.describe()}", file=sys.stderr)
         results = rollout_part(config, ids, engine, tasks=args.workers, progress=progress)
     label = args.policy
-    if args.policy in BOX_READING | DENSE_POLICIES:  # a shipped model: name its version
-        from nsrmp_bench.reference_model.registry import get_model
-
-        label = get_model(args.policy).id
+    entry = policy_predictor(args.policy)
+    if entry is not None and reads_boxes(args.policy):  # a learned model: name its version
+        label = entry.id
     header = SubmissionHeader(
         split=split_id, model=f"{label} (closed-loop rollout)",
         extra={"rollout": {"env": "nsrmp_bench/Tabletop-v0", "policy": args.policy,

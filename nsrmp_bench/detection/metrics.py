@@ -4,7 +4,7 @@
   class ("object"), computed by pycocotools' ``COCOeval`` (the reference implementation:
   101-point interpolated precision, greedy score-ordered matching, maxDets 100);
 - ``recall``: the share of gold objects matched by a detection (Hungarian on IoU,
-  threshold :data:`~nsrmp_bench.detection.matching.MATCH_IOU`), ``precision`` the share
+  threshold :data:`~nsrmp_bench.scoring.matching.MATCH_IOU`), ``precision`` the share
   of detections matched;
 - ``failure_share``: the share of scenes with at least one unmatched gold object; an
   unmatched object is *merged* when its box centre lies inside a detection matched to
@@ -29,8 +29,8 @@ from numpy.typing import NDArray
 
 from nsrmp_bench._optional import require
 from nsrmp_bench.detection.detections import Detections
-from nsrmp_bench.detection.matching import MATCH_IOU, hungarian_match
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.scoring.matching import MATCH_IOU, hungarian_match
 
 __all__ = ["DetectionScores", "GoldScene", "coco_ap", "gold_scenes", "score_detections"]
 

@@ -40,8 +40,8 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
-from nsrmp_bench import __version__
 from nsrmp_bench._optional import require
+from nsrmp_bench._version import __version__
 from nsrmp_bench.engine.base import Engine, run_task
 from nsrmp_bench.engine.progress import ProgressTally, TaskReport
 from nsrmp_bench.engine.signals import signals_held

@@ -7,10 +7,10 @@ Importing this package registers the environment ids with Gymnasium::
 
     env = gym.make("nsrmp_bench/Tabletop-v0", data="data/smoke", part="test")
 
-``import nsrmp_bench`` registers them too when Gymnasium has been imported before it, so
-``import gymnasium as gym; import nsrmp_bench; gym.register_envs(nsrmp_bench)`` works as
-for other environment packages; the id ``"nsrmp_bench.envs:nsrmp_bench/Tabletop-v0"``
-works in any order (Gymnasium imports the module first). The
+Gymnasium's convention for environment packages holds whatever the import order:
+``gym.register_envs(nsrmp_bench.envs)`` after ``import nsrmp_bench.envs``, or the id
+``"nsrmp_bench.envs:nsrmp_bench/Tabletop-v0"`` (Gymnasium imports the module first).
+``import nsrmp_bench`` alone registers nothing (no import-order effect). The
 environment class lives in :mod:`nsrmp_bench.envs.tabletop` and is imported only by
 ``gym.make`` (a string entry point), so registering costs no PyBullet import.
 """

@@ -1,12 +1,12 @@
-"""The dense baseline as a closed-loop policy: a pick and a place point per step.
+"""The dense models as a closed-loop policy: a pick and a place point per step.
 
-At every step the shipped dense model (``dense`` = ``dense-v2``, or ``dense-v1``,
-``dense5x-v1``) reads the *current* observation (instruction, RGB-D and boxes) as its
-open-loop predictor reads an episode's initial one, and returns its pick (the centre of
-the box its pick heatmap's peak falls in) and its place (the peak of its place heatmap)
-as a pick-and-place action. The boxes are the observation's: the gold ones
-(``boxes="gold"``) or a detector's (``boxes="classical"`` / ``"learned"``); the model
-uses them only to snap the pick to an object.
+At every step a registered dense model (kind ``dense``: ``dense`` = ``dense-v2``, or
+``dense-v1``, ``dense5x-v1``, or one registered from outside) reads the *current*
+observation (instruction, RGB-D and boxes) as its open-loop predictor reads an episode's
+initial one, and returns its pick (the centre of the box its pick heatmap's peak falls in)
+and its place (the peak of its place heatmap) as a pick-and-place action. The boxes are
+the observation's: the gold ones (``boxes="gold"``) or a detector's (``boxes="classical"``
+/ ``"learned"``); the model uses them only to snap the pick to an object.
 
 Its first move is always made: on the initial state its action is what ``nsrmp-bench
 predict dense`` predicts for the episode (the open-loop baseline, one move), so the
@@ -25,11 +25,7 @@ import numpy as np
 
 from nsrmp_bench.errors import InvalidArgument
 
-__all__ = ["DENSE_POLICIES", "DensePolicy"]
-
-DENSE_POLICIES = frozenset({"dense", "dense-v1", "dense-v2", "dense5x", "dense5x-v1",
-                            "dense5x-v2"})
-"""Policy names that run a shipped dense model (``dense`` is the registry's latest)."""
+__all__ = ["DensePolicy"]
 
 
 class DensePolicy:
@@ -43,17 +39,18 @@ class DensePolicy:
                    "--boxes gold|classical|learned)")
             raise InvalidArgument(msg)
         from nsrmp_bench.reference_model.contract import Kind
-        from nsrmp_bench.reference_model.registry import get_model, load_model
+        from nsrmp_bench.reference_model.registry import MODELS, get_model, load_model
 
         entry = get_model(model_id)
         if entry.kind is not Kind.DENSE:
+            dense = sorted(k for k, e in MODELS.items() if e.kind is Kind.DENSE)
             msg = (f"policy {model_id!r} is a {entry.kind.value} model; the dense policy "
-                   f"runs a dense model ({', '.join(sorted(DENSE_POLICIES))})")
+                   f"runs a dense model ({', '.join(dense)})")
             raise InvalidArgument(msg)
-        from nsrmp_bench.reference_model.dense import DensePredictor
+        from nsrmp_bench.reference_model.base import PredictionModel
 
         model = load_model(entry.id)
-        assert isinstance(model, DensePredictor)
+        assert isinstance(model, PredictionModel)
         self.model = model
         self.model_id = entry.id
         self._instance = ""
@@ -72,12 +69,33 @@ class DensePolicy:
         item = {"id": f"{self._instance}#{self.moves}", "inputs": {
             "instruction": observation["instruction"], "rgb": observation["rgb"],
             "depth": observation["depth"], "boxes": boxes}}
-        _, res = self.model.infer([item])
-        subject = int(res.subjects[0])
-        pick = (float(res.picks[0, 0]), float(res.picks[0, 1]))
-        place = (float(res.places[0, 0]), float(res.places[0, 1]))
+        subject, pick, place = self._pick_and_place(item, boxes)
         x0, y0, x1, y1 = boxes[subject]
         if self.moves > 0 and x0 <= place[0] <= x1 and y0 <= place[1] <= y1:
             return {"done": 1}
         self.moves += 1
         return {"pick": pick, "place": place, "done": 0}
+
+    def _pick_and_place(self, item: dict[str, Any], boxes: np.ndarray[Any, Any]
+                        ) -> tuple[int, tuple[float, float], tuple[float, float]]:
+        """The picked object, the pick and the place point: from the shipped dense models'
+        heatmaps (``infer``), or from any dense model's prediction (its ``pick`` and
+        ``place``; the picked object is the box whose centre is nearest the pick)."""
+        from nsrmp_bench.reference_model.dense import DensePredictor
+
+        if isinstance(self.model, DensePredictor):
+            _, res = self.model.infer([item])
+            return (int(res.subjects[0]), (float(res.picks[0, 0]), float(res.picks[0, 1])),
+                    (float(res.places[0, 0]), float(res.places[0, 1])))
+        import torch
+
+        inputs = {**item["inputs"], "boxes": torch.as_tensor(boxes, dtype=torch.float32)}
+        (prediction,) = self.model.predict([{**item, "inputs": inputs}])
+        if prediction.pick is None or prediction.place is None:
+            msg = (f"dense model {self.model_id!r} predicted no pick and place for "
+                   f"{item['id']!r}; a dense model's predict gives both")
+            raise InvalidArgument(msg)
+        pick = (float(prediction.pick[0]), float(prediction.pick[1]))
+        centres = (boxes[:, :2] + boxes[:, 2:]) / 2
+        subject = int(np.argmin(((centres - np.asarray(pick)) ** 2).sum(axis=1)))
+        return subject, pick, (float(prediction.place[0]), float(prediction.place[1]))

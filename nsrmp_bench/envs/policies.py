@@ -2,22 +2,25 @@
 
 A policy is any callable ``policy(observation) -> action`` (the actions of
 :mod:`nsrmp_bench.envs.tabletop`). If it also has a ``reset(observation, info)`` method,
-that is called at the start of every episode. Named policies:
+that is called at the start of every episode. Every registered predictor
+(:mod:`nsrmp_bench.predictors`: the learned models and the baselines) is a named policy,
+by its id or its bare name (the latest version), and its kind says which:
 
-* ``oracle``: the gold grounded program, one DSL step per move, then done. It reads the
-  gold program from the environment (privileged: the upper bound, as ``oracle-v1``).
-* ``noop``: says done at once (the floor).
-* ``nsrm`` / ``nmn`` (the latest versions, v3; or a model id such as ``nsrm-v1``): a
-  shipped program model (torch extra). It reads the instruction, the initial RGB-D and
-  the gold boxes (so the environment needs ``boxes="gold"``; ``rollout`` sets it) once,
-  predicts its grounded program, and issues it one DSL step per move; each step's target
-  is computed by the environment on the real state after the previous move (closed-loop
+* kind ``baseline`` (``oracle``, ``noop``, ``random``): the baseline's predicted program,
+  one DSL step per move, then done (:class:`BaselinePolicy`). It reads what the baseline
+  reads from the environment's episode (``oracle`` the gold program: privileged, the upper
+  bound; ``noop`` nothing: done at once, the floor).
+* kind ``program`` (``nsrm``, ``nmn``; or a model id such as ``nsrm-v1``): a shipped
+  program model (torch extra). It reads the instruction, the initial RGB-D and the gold
+  boxes (so the environment needs ``boxes="gold"``; ``rollout`` sets it) once, predicts
+  its grounded program, and issues it one DSL step per move; each step's target is
+  computed by the environment on the real state after the previous move (closed-loop
   execution, the program is not re-planned).
-* ``dense`` (``dense-v2``; or ``dense-v1``, ``dense5x``/``dense5x-v2``, ``dense5x-v1``):
-  the shipped dense baseline, a pick and a place point per step from the current
-  observation, done when its move would change nothing
-  (:mod:`nsrmp_bench.envs.dense_policy`). It reads the observation's boxes, gold or a
-  detector's (``rollout`` gives the gold ones unless ``--boxes`` names a detector).
+* kind ``dense`` (``dense`` = ``dense-v2``, ``dense5x``, ...): the shipped dense model, a
+  pick and a place point per step from the current observation, done when its move would
+  change nothing (:mod:`nsrmp_bench.envs.dense_policy`). It reads the observation's boxes,
+  gold or a detector's (``rollout`` gives the gold ones unless ``--boxes`` names a
+  detector).
 * ``module:function``: any importable callable, e.g. ``my_pkg.policies:greedy``. A class
   is instantiated with no arguments. Example::
 
@@ -26,6 +29,9 @@ that is called at the start of every episode. Named policies:
           return {"done": 1}
 
       nsrmp-bench rollout my_policy:policy --data data/smoke/test --out p.jsonl
+
+A model registered with :func:`nsrmp_bench.reference_model.registry.register` is a policy
+with no other line.
 """
 
 from __future__ import annotations
@@ -34,21 +40,20 @@ import importlib
 import inspect
 import os
 import sys
-from collections.abc import Callable
-from functools import partial
 from typing import Any, Protocol
 
 import numpy as np
 
-from nsrmp_bench.envs.dense_policy import DENSE_POLICIES, DensePolicy
-from nsrmp_bench.errors import InvalidArgument
+import nsrmp_bench.baselines  # registers the baselines as predictors
+import nsrmp_bench.reference_model.registry  # noqa: F401  (registers the learned models)
+from nsrmp_bench.envs.dense_policy import DensePolicy
+from nsrmp_bench.errors import InvalidArgument, UnknownId
+from nsrmp_bench.predictors import Kind, Predictor, get_predictor, predictors
 
-__all__ = ["BOX_READING", "DENSE_POLICIES", "NAMED_POLICIES", "NoopPolicy", "OraclePolicy",
-           "Policy", "ProgramModelPolicy", "check_policy", "make_policy"]
+__all__ = ["BaselinePolicy", "Policy", "ProgramModelPolicy", "check_policy", "make_policy",
+           "policy_names", "policy_predictor", "reads_boxes", "reads_gold_boxes"]
 
-BOX_READING = frozenset({"nsrm", "nsrm-v1", "nsrm-v2", "nsrm-v3", "nmn", "nmn-v1", "nmn-v2",
-                         "nmn-v3"})
-"""Named policies that read the gold boxes (the environment needs ``boxes="gold"``)."""
+POLICY_KINDS = (Kind.PROGRAM, Kind.DENSE, Kind.BASELINE)
 
 
 class Policy(Protocol):
@@ -57,24 +62,32 @@ class Policy(Protocol):
     def __call__(self, observation: dict[str, Any]) -> Any: ...
 
 
-class OraclePolicy:
-    """The gold program, one step per move, then done (reads the gold from ``env``)."""
+class BaselinePolicy:
+    """A baseline's predicted program, one step per move, then done (the baseline reads the
+    environment's episode, as it reads a part's: ``oracle-v1`` its gold program)."""
 
-    def __init__(self, env: Any) -> None:
+    def __init__(self, env: Any, baseline_id: str) -> None:
+        from nsrmp_bench.baselines.registry import get_baseline
+
+        self.baseline = get_baseline(baseline_id)
         self.env = env.unwrapped
+        self._steps: list[tuple[str, int, int]] = []
         self._k = 0
 
     def reset(self, observation: dict[str, Any], info: dict[str, Any]) -> None:
-        """Start the instance's program from its first step."""
+        """Predict the instance's program (seed 0, as ``nsrmp-bench baseline``)."""
+        from nsrmp_bench.baselines.registry import predict
+
+        (prediction,) = predict(self.baseline, [self.env.episode])
+        self._steps = [(s.action, s.subject, s.reference) for s in prediction.program or ()]
         self._k = 0
 
     def __call__(self, observation: dict[str, Any]) -> dict[str, Any]:
-        program = self.env.episode.symbolic.grounded
-        if self._k >= len(program):
+        if self._k >= len(self._steps):
             return {"done": 1}
-        step = program[self._k]
+        step = self._steps[self._k]
         self._k += 1
-        return {"step": (step.action, step.subject, step.reference)}
+        return {"step": step}
 
 
 class ProgramModelPolicy:
@@ -91,8 +104,10 @@ class ProgramModelPolicy:
 
         model = load_model(model_id)
         if not isinstance(model, ProgramPredictionModel):
-            msg = (f"policy {model_id!r} is a {model.kind.value} model; the closed loop "
-                   "issues programs, so name a program model (nsrm, nmn, nsrm-v1, ...)")
+            msg = (f"policy {model_id!r}: its class {type(model).__name__} "
+                   f"({model.kind.value} model) has no programs(items); the closed loop issues "
+                   "programs: name a program model (nsrm, nmn, nsrm-v1, ...), or make the "
+                   "model subclass ProgramPredictionModel")
             raise InvalidArgument(msg)
         self.model = model
         self.env = env.unwrapped
@@ -119,44 +134,53 @@ class ProgramModelPolicy:
         return {"step": (a, s, r)}
 
 
-class NoopPolicy:
-    """Says done at once: the scene stays as it is."""
-
-    def __call__(self, observation: dict[str, Any]) -> dict[str, Any]:
-        return {"done": 1}
-
-
-def _dense(model_id: str, env: Any) -> Policy:
-    return DensePolicy(env, model_id)
+def policy_names() -> list[str]:
+    """Every named policy: the ids of the registered predictors of a kind the closed loop
+    runs, and their bare names (the latest version)."""
+    ids = [p.id for p in predictors(*POLICY_KINDS)]
+    return sorted({*ids, *(i.rsplit("-v", 1)[0] for i in ids)})
 
 
-NAMED_POLICIES: dict[str, Callable[[Any], Policy]] = {
-    "oracle": OraclePolicy,
-    "noop": lambda env: NoopPolicy(),
-    "nsrm": lambda env: ProgramModelPolicy(env, "nsrm"),  # the registry's latest version
-    "nsrm-v1": lambda env: ProgramModelPolicy(env, "nsrm-v1"),
-    "nsrm-v2": lambda env: ProgramModelPolicy(env, "nsrm-v2"),
-    "nsrm-v3": lambda env: ProgramModelPolicy(env, "nsrm-v3"),
-    "nmn": lambda env: ProgramModelPolicy(env, "nmn"),
-    "nmn-v1": lambda env: ProgramModelPolicy(env, "nmn-v1"),
-    "nmn-v2": lambda env: ProgramModelPolicy(env, "nmn-v2"),
-    "nmn-v3": lambda env: ProgramModelPolicy(env, "nmn-v3"),
-    **{name: partial(_dense, name) for name in sorted(DENSE_POLICIES)},
-}
-"""Policy name -> factory taking the environment."""
+def policy_predictor(name: str) -> Predictor | None:
+    """The registered predictor the policy ``name`` runs (None for ``module:function``)."""
+    if ":" in name:
+        return None
+    try:
+        return get_predictor(name, *POLICY_KINDS)
+    except UnknownId as exc:
+        msg = (f"unknown policy {name!r}; use one of {policy_names()} or 'module:function' "
+               "naming a callable policy(observation) -> action")
+        raise InvalidArgument(msg) from exc
+
+
+def reads_gold_boxes(name: str) -> bool:
+    """Whether the policy ``name`` issues DSL steps over the gold boxes (a program model)."""
+    entry = policy_predictor(name)
+    return entry is not None and entry.kind is Kind.PROGRAM
+
+
+def reads_boxes(name: str) -> bool:
+    """Whether the policy ``name`` reads the observation's boxes (a program or dense model)."""
+    entry = policy_predictor(name)
+    return entry is not None and entry.kind in (Kind.PROGRAM, Kind.DENSE)
 
 
 def check_policy(name: str) -> None:
     """Raise :class:`InvalidArgument` unless ``name`` names a policy (imports it)."""
-    if name not in NAMED_POLICIES:
+    if policy_predictor(name) is None:
         _load(name)
 
 
 def make_policy(name: str, env: Any) -> Policy:
-    """The policy ``name`` (a named policy or ``module:function``) for ``env``."""
-    if name in NAMED_POLICIES:
-        return NAMED_POLICIES[name](env)
-    return _load(name)
+    """The policy ``name`` (a registered predictor or ``module:function``) for ``env``."""
+    entry = policy_predictor(name)
+    if entry is None:
+        return _load(name)
+    if entry.kind is Kind.BASELINE:
+        return BaselinePolicy(env, entry.id)
+    if entry.kind is Kind.PROGRAM:  # the name as given: its errors say it
+        return ProgramModelPolicy(env, name)
+    return DensePolicy(env, name)
 
 
 def _current_directory_on_path() -> None:
@@ -170,7 +194,7 @@ def _current_directory_on_path() -> None:
 def _load(name: str) -> Policy:
     module_name, sep, attr = name.partition(":")
     if not sep or not module_name or not attr:
-        msg = (f"unknown policy {name!r}; use one of {sorted(NAMED_POLICIES)} or "
+        msg = (f"unknown policy {name!r}; use one of {policy_names()} or "
                "'module:function' naming a callable policy(observation) -> action")
         raise InvalidArgument(msg)
     _current_directory_on_path()

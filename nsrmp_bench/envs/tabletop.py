@@ -77,10 +77,10 @@ from nsrmp_bench.envs.observed_boxes import (
 )
 from nsrmp_bench.envs.placing import check_point, picked_object, place_target
 from nsrmp_bench.episode import Episode
+from nsrmp_bench.episode_views import episode_boxes, episode_camera
 from nsrmp_bench.errors import InvalidAction, InvalidArgument, ResetNeeded, UnknownId
 from nsrmp_bench.geometry.boxes import box_centres, box_iou
 from nsrmp_bench.geometry.camera import Camera
-from nsrmp_bench.geometry.projection import episode_boxes, episode_camera
 from nsrmp_bench.instruction_check import MAX_INSTRUCTION_CHARS, check_instruction
 from nsrmp_bench.scene import Pose, State
 from nsrmp_bench.scoring.metrics import SUCCESS_IOU

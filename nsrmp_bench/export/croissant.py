@@ -24,8 +24,8 @@ from typing import Any, Final
 import numpy as np
 
 from nsrmp_bench.canonical import sha256_file
+from nsrmp_bench.episode_views import episode_boxes
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.geometry.projection import episode_boxes
 
 __all__ = ["CROISSANT_CONTEXT", "CROISSANT_NAME", "write_croissant"]
 

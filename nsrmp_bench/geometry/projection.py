@@ -1,9 +1,8 @@
-"""What an episode looks like from its camera: states to amodal 2D boxes.
+"""States to amodal 2D boxes: the projection of object poses through a camera.
 
-A rendered episode carries its camera and its targets (boxes and poses per rendered
-state). A symbolic-only episode is seen through the official camera, and its boxes are the
-projection of its symbolic states; the same projection turns any predicted state (from the
-oracle or random baseline) into boxes.
+The projection turns any state (an episode's symbolic states, or one predicted by the oracle
+or random baseline) into boxes; what an episode looks like from its own camera is
+:mod:`nsrmp_bench.episode_views`.
 """
 
 from __future__ import annotations
@@ -13,23 +12,10 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from nsrmp_bench.episode import Episode
 from nsrmp_bench.geometry.camera import Camera
-from nsrmp_bench.geometry.default_camera import OFFICIAL_CAMERA
-from nsrmp_bench.scene import Pose, Scene, SceneObject, State
+from nsrmp_bench.scene import SceneObject, State
 
-__all__ = [
-    "episode_boxes",
-    "episode_camera",
-    "episode_initial_state",
-    "episode_positions",
-    "states_boxes",
-]
-
-
-def episode_camera(episode: Episode) -> Camera:
-    """The episode's camera: its rendering's, or the official one when symbolic-only."""
-    return OFFICIAL_CAMERA if episode.rendering is None else episode.rendering.camera
+__all__ = ["states_boxes"]
 
 
 def states_boxes(
@@ -45,35 +31,3 @@ def states_boxes(
         np.tile(extents, (k, 1)), pos.reshape(k * n, 3), orn.reshape(k * n, 4)
     )
     return boxes.astype(np.float64).reshape(k, n, 4)
-
-
-def episode_boxes(episode: Episode) -> NDArray[np.float64]:
-    """Gold amodal boxes ``(S+1, N, 4)``: rendered targets, or projected symbolic states."""
-    if episode.rendering is not None:
-        return np.asarray(episode.rendering.targets.boxes_amodal, dtype=np.float64)
-    sym = episode.symbolic
-    return states_boxes(OFFICIAL_CAMERA, sym.scene.objects, sym.states)
-
-
-def episode_positions(episode: Episode) -> NDArray[np.float64]:
-    """Gold object centres ``(S+1, N, 3)`` in metres (world frame)."""
-    if episode.rendering is not None:
-        return np.asarray(episode.rendering.targets.poses, dtype=np.float64)[..., :3]
-    states = episode.symbolic.states
-    return np.array([[p.position for p in s] for s in states], dtype=np.float64)
-
-
-def episode_initial_state(episode: Episode) -> Scene:
-    """The scene as it starts: rendered initial poses when rendered, else symbolic."""
-    sym = episode.symbolic
-    if episode.rendering is None:
-        return sym.scene
-    poses = np.asarray(episode.rendering.targets.poses, dtype=np.float64)[0]
-    initial = tuple(
-        Pose(
-            (float(p[0]), float(p[1]), float(p[2])),
-            (float(p[3]), float(p[4]), float(p[5]), float(p[6])),
-        )
-        for p in poses
-    )
-    return sym.scene.at(initial)

@@ -21,6 +21,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from nsrmp_bench.ranks import is_reference
+
 __all__ = ["DENSE", "DETECTED", "GOLD", "PROTOCOLS", "Protocol", "is_reference", "protocol_of"]
 
 GOLD = "gold boxes"
@@ -28,9 +30,6 @@ DETECTED = "detected boxes"
 DENSE = "dense"
 PROTOCOLS = (GOLD, DETECTED, DENSE)
 """The protocols, in the order figures and filters show them."""
-
-REFERENCE_KIND = "baseline"
-
 
 @dataclass(frozen=True)
 class Protocol:
@@ -58,7 +57,3 @@ def protocol_of(model: str, counts: Mapping[str, int]) -> Protocol:
         return Protocol(DENSE)
     return Protocol(GOLD)
 
-
-def is_reference(kind: str) -> bool:
-    """Whether a row of this ``kind`` is a reference (a registered baseline)."""
-    return kind == REFERENCE_KIND

@@ -5,7 +5,8 @@ Markdown and JSON boards exactly as :func:`nsrmp_bench.leaderboard.build` does, 
 fills the site folder (default ``leaderboards/site/``): ``summary.json`` of the entries'
 runs (the format ``evaluate`` writes, so ``plot`` and ``report`` read it), the figures
 (``figures/*.png``/``.svg``), the paper's tables (``paper-tables.md``/``.tex``) and the
-pages, with copies of the predictions files and model cards they link. The README's
+pages, with copies of the model cards they link; the pages link the predictions files
+where they are committed (``../predictions/``). The README's
 Results figures are the site's figures. :func:`rebuild_site` redraws the site alone from
 the committed boards and ``summary.json`` (no data, no scoring).
 """
@@ -47,9 +48,14 @@ def rebuild_site(entries_dir: str | os.PathLike[str], boards_dir: str | os.PathL
     ``site_dir/summary.json``, as the last :func:`publish` wrote them (no scoring)."""
     require("matplotlib")
     runs = Results.read(site_dir).runs
-    copies = tuple(replace(r, predictions=f"predictions/{Path(r.predictions).name}")
-                   for r in runs)  # the site's own copies, wherever the summary pointed
-    return write_site_files(Results(copies), entries_dir, boards_dir, site_dir)
+    linked = tuple(replace(r, predictions=_beside_site(Path(r.predictions).name))
+                   for r in runs)  # the committed files, wherever the summary pointed
+    return write_site_files(Results(linked), entries_dir, boards_dir, site_dir)
+
+
+def _beside_site(name: str) -> str:
+    """A predictions file's path in ``summary.json``: relative to the site folder."""
+    return f"../predictions/{name}"
 
 
 def publish(entries_dir: str | os.PathLike[str], data_root: str | os.PathLike[str],
@@ -63,7 +69,7 @@ def publish(entries_dir: str | os.PathLike[str], data_root: str | os.PathLike[st
 
     def keep(entry: Entry, result: ScoreResult) -> None:
         runs.append(Run.from_score(result, model=entry.model, kind=entry.kind,
-                                   predictions=f"predictions/{entry.predictions.name}"))
+                                   predictions=_beside_site(entry.predictions.name)))
 
     boards = build(entries_dir, data_root, out_dir, breakdown=True, on_result=keep)
     return boards, write_site_files(Results(tuple(runs)), entries_dir, out_dir, site)

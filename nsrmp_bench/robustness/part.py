@@ -34,7 +34,7 @@ from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.manifest import MANIFEST_NAME, Manifest, build_manifest, read_manifest
 from nsrmp_bench.storage.reader import open as open_part
 from nsrmp_bench.storage.records import ShardRecord
-from nsrmp_bench.storage.writer import ShardWriter
+from nsrmp_bench.storage.writer import shard_writer
 
 __all__ = ["RECORDS_NAME", "PerturbReport", "instance_rng", "perturb_part", "read_records",
            "shuffled_sources"]
@@ -134,7 +134,7 @@ def perturb_part(
         ids = part.ids
         done = 0
         for shard in manifest.shards:
-            with ShardWriter(out_p, shard.start, shard.stop, split=manifest.split,
+            with shard_writer(out_p, shard.start, shard.stop, split=manifest.split,
                              background=False) as writer:
                 for entry in shard.episodes:
                     pos = part.position(entry.id)

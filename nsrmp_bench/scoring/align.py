@@ -19,10 +19,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from nsrmp_bench.detection.matching import MATCH_IOU
 from nsrmp_bench.errors import InvalidArgument, SubmissionError
 from nsrmp_bench.scoring.detected import resolve_detections
 from nsrmp_bench.scoring.gold import GoldTable
+from nsrmp_bench.scoring.matching import MATCH_IOU
 from nsrmp_bench.scoring.ragged import gather_rows, offsets_from_lengths, row_ids
 from nsrmp_bench.scoring.submission import Submission, SubmissionHeader
 from nsrmp_bench.scoring.validate import MAX_SHOWN, Problems

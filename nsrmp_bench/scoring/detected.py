@@ -5,7 +5,7 @@ xyxy in the initial image). Its ``boxes``, ``step_boxes``, ``positions`` and the
 object indices are then per *detection* (K of them, in the order of ``detections``), not
 per gold object. Before anything is scored, :func:`resolve_detections` matches each such
 line's detections to the instance's gold initial boxes (Hungarian on IoU, a pair matches
-at IoU >= :data:`~nsrmp_bench.detection.matching.MATCH_IOU`) and rewrites the line in the
+at IoU >= :data:`~nsrmp_bench.scoring.matching.MATCH_IOU`) and rewrites the line in the
 gold object order:
 
 - a matched gold object takes its detection's boxes and position;
@@ -27,8 +27,8 @@ import dataclasses
 import numpy as np
 from numpy.typing import NDArray
 
-from nsrmp_bench.detection.matching import MATCH_IOU, hungarian_match
 from nsrmp_bench.scoring.gold import GoldTable
+from nsrmp_bench.scoring.matching import MATCH_IOU, hungarian_match
 from nsrmp_bench.scoring.ragged import offsets_from_lengths
 from nsrmp_bench.scoring.submission import Submission
 

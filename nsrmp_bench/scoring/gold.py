@@ -24,8 +24,8 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from nsrmp_bench.episode import Episode, SymbolicEpisode
+from nsrmp_bench.episode_views import episode_boxes, episode_camera, episode_positions
 from nsrmp_bench.errors import DataIntegrityError, InvalidArgument
-from nsrmp_bench.geometry.projection import episode_boxes, episode_camera, episode_positions
 from nsrmp_bench.scoring.ragged import offsets_from_lengths, positions_in_rows, row_ids
 from nsrmp_bench.vocabulary import ACTIONS
 

@@ -1,9 +1,10 @@
 """Storage: sharded HDF5 episodes with manifests, readers, and export/import.
 
-``open(path)`` reads a shard or a data directory; :class:`ShardWriter` and
-:func:`write_dataset` write crash-safely; :func:`episode_hash` and :func:`root_hash` are the
-content hashes manifests record. MCAP export (``mcap`` extra) and the import of the
-original NSRM layout live in :mod:`.mcap_export` and :mod:`.nsrm_import`.
+``open(path)`` reads a shard or a data directory; :func:`shard_writer` (a
+:class:`ShardWriter`) and :func:`write_dataset` write crash-safely; :func:`episode_hash`
+and :func:`root_hash` are the content hashes manifests record. MCAP export (``mcap``
+extra) and the import of the original NSRM layout live in :mod:`.mcap_export` and
+:mod:`.nsrm_import`.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from nsrmp_bench.storage.resume import (
     write_dataset,
     write_manifest,
 )
-from nsrmp_bench.storage.writer import ShardWriter, write_shard
+from nsrmp_bench.storage.writer import ShardWriter, shard_writer, write_shard
 
 __all__ = [
     "EpisodeCollection",
@@ -48,6 +49,7 @@ __all__ = [
     "root_hash",
     "scan_output",
     "shard_ranges",
+    "shard_writer",
     "write_dataset",
     "write_manifest",
     "write_shard",

@@ -38,8 +38,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from nsrmp_bench import __version__
 from nsrmp_bench._optional import require
+from nsrmp_bench._version import __version__
 from nsrmp_bench.episode import SCHEMA_VERSION, Episode
 from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.storage.atomic import atomic_path, check_output_file

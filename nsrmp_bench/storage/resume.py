@@ -36,7 +36,7 @@ from nsrmp_bench.storage.manifest import MANIFEST_NAME, Manifest, build_manifest
 from nsrmp_bench.storage.reader import read_episode
 from nsrmp_bench.storage.records import CATEGORY_KEYS, EpisodeEntry, ShardRecord
 from nsrmp_bench.storage.tolerance import TOLERANT_EXECUTORS, tolerant_summary
-from nsrmp_bench.storage.writer import ShardWriter
+from nsrmp_bench.storage.writer import shard_writer
 
 __all__ = [
     "OutputState",
@@ -235,14 +235,14 @@ def write_dataset(
     ``make_episode(i)`` gives instance ``i``. Shards already complete are skipped, so a run
     killed at any point and started again reaches the same files and manifest. This is the
     sequential driver; a parallel runner hands :func:`shard_ranges` out to workers, each
-    writing with :class:`~nsrmp_bench.storage.writer.ShardWriter`, then calls
+    writing with :func:`~nsrmp_bench.storage.writer.shard_writer`, then calls
     :func:`write_manifest`.
     """
     out = Path(out_dir)
     (out / MANIFEST_NAME).unlink(missing_ok=True)
     state = scan_output(out)
     for a, b in state.missing(start, stop, shard_size):
-        with ShardWriter(out, a, b, split=split, package_version=package_version) as w:
+        with shard_writer(out, a, b, split=split, package_version=package_version) as w:
             for i in range(a, b):
                 w.add(make_episode(i))
             record = w.commit()

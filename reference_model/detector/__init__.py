@@ -18,7 +18,6 @@ from torch import Tensor
 
 from nsrmp_bench.dataset import EpisodeDataset
 from nsrmp_bench.detection.detections import Detections
-from nsrmp_bench.detection.matching import MATCH_IOU, hungarian_match
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.reference_model.base import LearnedModel, TrainingPlan
 from nsrmp_bench.reference_model.contract import Kind, ModelConfig
@@ -27,6 +26,7 @@ from nsrmp_bench.reference_model.detector.loss import detection_loss
 from nsrmp_bench.reference_model.detector.model import CenterNet, decode, image_tensor
 from nsrmp_bench.reference_model.detector.scenes import Scenes, read_scenes
 from nsrmp_bench.reference_model.training import Stage
+from nsrmp_bench.scoring.matching import MATCH_IOU, hungarian_match
 from nsrmp_bench.vocabulary import COLOURS, SHAPES
 
 __all__ = ["MODEL_ID", "DetectorConfig", "DetectorPredictor", "detect_scenes",

@@ -144,3 +144,43 @@ def test_the_layer_check_sees_hidden_imports(tmp_path: Path) -> None:
     src.write_text("import importlib\n\ndef f():\n"
                    "    return importlib.import_module('nsrmp_bench.generators.templates')\n")
     assert (4, "nsrmp_bench.generators.templates") in _imports(src)
+
+
+ROOT_NAMES = {"nsrmp_bench", "nsrmp_bench.__version__", "nsrmp_bench.open",
+              "nsrmp_bench.score", "nsrmp_bench.load_model"}
+
+
+def test_no_module_imports_the_package_root() -> None:
+    """The root's names imported on first use (``open``, ``score``, ``load_model``) reach
+    every layer; a module that imported the root would reach them all too."""
+    found = [f"{module} (line {line}) imports {target}"
+             for module, path in _sources() if module != "nsrmp_bench"
+             for line, target in _imports(path) if target in ROOT_NAMES]
+    assert not found, ("import from the module itself (nsrmp_bench._version for "
+                       "__version__):\n" + "\n".join(found))
+
+
+def test_the_version_imports_nothing_else() -> None:
+    import subprocess
+    import sys
+
+    code = ("import sys; from nsrmp_bench import __version__; "
+            "extra = sorted(m for m in sys.modules if m.startswith('nsrmp_bench') "
+            "and m not in ('nsrmp_bench', 'nsrmp_bench._version')); "
+            "assert not extra, extra")
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
+def test_every_module_is_in_a_layer_of_the_contract() -> None:
+    """pyproject's ``layers`` contract names every top-level module and package of the
+    namespace (a module outside every layer would escape the check)."""
+    import tomllib
+
+    config = tomllib.loads((REPO / "pyproject.toml").read_text("utf-8"))
+    (contract,) = [c for c in config["tool"]["importlinter"]["contracts"]
+                   if c["type"] == "layers"]
+    named = {name.strip() for layer in contract["layers"]
+             for name in layer.replace("|", ":").split(":")}
+    present = {m.split(".")[1] for m, _ in _sources() if m.count(".") >= 1}
+    assert present - named == set(), f"not in any layer: {sorted(present - named)}"
+    assert named - present == set(), f"layers name missing modules: {sorted(named - present)}"

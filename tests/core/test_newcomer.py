@@ -321,9 +321,11 @@ def test_a_checkpoint_that_is_not_the_shipped_one_gets_its_own_name(
     pytest.importorskip("torch")
     import shutil
 
-    import torch
-
-    from nsrmp_bench.reference_model.checkpoints import save_checkpoint, shipped_checkpoint
+    from nsrmp_bench.reference_model.checkpoints import (
+        read_torch_file,
+        save_checkpoint,
+        shipped_checkpoint,
+    )
     from nsrmp_bench.reference_model.part_prediction import checkpoint_label
 
     shipped = shipped_checkpoint("nsrm-v1")
@@ -332,7 +334,7 @@ def test_a_checkpoint_that_is_not_the_shipped_one_gets_its_own_name(
     shutil.copyfile(shipped, same)
     assert checkpoint_label("nsrm-v1", same) == "nsrm-v1"  # the same bytes: the shipped one
 
-    payload = torch.load(shipped, weights_only=False, map_location="cpu")
+    payload = read_torch_file(shipped)
     state = dict(payload["state"])
     key = next(k for k, v in state.items() if v.is_floating_point())
     state[key] = state[key] + 0.01

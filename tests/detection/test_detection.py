@@ -19,8 +19,8 @@ from nsrmp_bench.detection.detections import (
     read_detections,
     write_detections,
 )
-from nsrmp_bench.detection.matching import hungarian_match, pairwise_iou
 from nsrmp_bench.detection.metrics import coco_ap, gold_scenes, score_detections
+from nsrmp_bench.scoring.matching import hungarian_match, pairwise_iou
 
 
 def _ap_101(gold: list[np.ndarray], det: list[np.ndarray], scores: list[np.ndarray],

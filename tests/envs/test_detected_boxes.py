@@ -16,9 +16,9 @@ pytest.importorskip("pybullet")
 pytest.importorskip("scipy")
 
 from nsrmp_bench.detection.classical import classical_detect
-from nsrmp_bench.detection.matching import hungarian_match
 from nsrmp_bench.envs.tabletop import TabletopEnv
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.scoring.matching import hungarian_match
 from nsrmp_bench.storage import open as open_storage
 
 pytestmark = pytest.mark.sim

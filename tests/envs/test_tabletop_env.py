@@ -15,8 +15,8 @@ gym = pytest.importorskip("gymnasium")
 pytest.importorskip("pybullet")
 
 from nsrmp_bench.envs.tabletop import TabletopEnv  # noqa: E402
+from nsrmp_bench.episode_views import episode_boxes  # noqa: E402
 from nsrmp_bench.errors import InvalidAction, InvalidArgument, ResetNeeded, UnknownId  # noqa: E402
-from nsrmp_bench.geometry.projection import episode_boxes  # noqa: E402
 from nsrmp_bench.storage import open as open_storage  # noqa: E402
 
 pytestmark = pytest.mark.sim
@@ -40,9 +40,9 @@ def _oracle_actions(ep: Any) -> list[dict[str, Any]]:
 
 
 def test_registered_on_import_and_made_by_id(smoke_v2_test: Path) -> None:
-    import nsrmp_bench
+    import nsrmp_bench.envs
 
-    gym.register_envs(nsrmp_bench)
+    gym.register_envs(nsrmp_bench.envs)
     assert "nsrmp_bench/Tabletop-v0" in gym.registry
     env = gym.make("nsrmp_bench/Tabletop-v0", data=str(smoke_v2_test), part="test")
     try:
@@ -210,18 +210,23 @@ def test_generated_on_the_fly_from_a_split_spec() -> None:
         env.close()
 
 
-def test_import_order_and_module_prefixed_id() -> None:
+def test_the_envs_package_registers_in_any_import_order() -> None:
     import subprocess
     import sys
 
-    code = ("import gymnasium as gym, nsrmp_bench; gym.register_envs(nsrmp_bench); "
-            "assert 'nsrmp_bench/Tabletop-v0' in gym.registry; "
-            "import sys; assert 'pybullet' not in sys.modules")
-    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
-    code = ("import nsrmp_bench, gymnasium as gym, sys; "
+    for first, then in (("gymnasium as gym", "nsrmp_bench.envs"),
+                        ("nsrmp_bench.envs", "gymnasium as gym")):
+        code = (f"import {first}; import {then}; import gymnasium as gym, nsrmp_bench.envs; "
+                "gym.register_envs(nsrmp_bench.envs); "
+                "assert 'nsrmp_bench/Tabletop-v0' in gym.registry; "
+                "import sys; assert 'pybullet' not in sys.modules")
+        subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+    # the package root registers nothing, in either order; the module-prefixed id works
+    code = ("import gymnasium as gym, nsrmp_bench, sys; "
             "assert 'nsrmp_bench/Tabletop-v0' not in gym.registry; "
             "gym.make('nsrmp_bench.envs:nsrmp_bench/Tabletop-v0', split='smoke-v2').close()")
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
 
 
 def test_robot_executor_carries_out_the_oracle(smoke_v2_test: Path,

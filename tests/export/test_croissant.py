@@ -10,7 +10,7 @@ import pytest
 mlc = pytest.importorskip("mlcroissant")
 
 from nsrmp_bench.canonical import sha256_file  # noqa: E402
-from nsrmp_bench.geometry.projection import episode_boxes  # noqa: E402
+from nsrmp_bench.episode_views import episode_boxes  # noqa: E402
 from nsrmp_bench.release import pack  # noqa: E402
 from nsrmp_bench.storage import open as open_storage  # noqa: E402
 

@@ -124,7 +124,7 @@ def test_why_the_oracle_is_not_the_original(part: Path) -> None:
     as docs/cross-generator.md says: beside a cube or dice, 1 cm higher (the original keeps
     the base's nominal z, 1 cm inside the table); on a cube or dice, the same place."""
     from nsrmp_bench.baselines.oracle import oracle_prediction
-    from nsrmp_bench.geometry.projection import episode_positions
+    from nsrmp_bench.episode_views import episode_positions
 
     checked = {"beside": 0, "on": 0}
     with nsrmp_bench.open(part) as coll:

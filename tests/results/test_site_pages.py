@@ -2,7 +2,9 @@
 and runs to the same bytes; model cards come from checkpoint cards, the baseline registry
 or the entry, and a card without facts says so; ranks are shared by the stated rule; the
 index names the best non-reference entry and keeps the smoke test board apart; every link
-stays inside the site folder."""
+stays inside the site folder or reaches the committed predictions files beside it
+(``leaderboards/predictions/``, never copied into the site); a site written away from them
+carries its own copies."""
 
 from __future__ import annotations
 
@@ -96,13 +98,38 @@ def pages(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return build_site(tmp_path_factory.mktemp("pages"), figures=False)
 
 
-def test_every_link_stays_inside_the_site_folder(pages: Path) -> None:
+def test_every_link_stays_inside_the_site_or_reaches_the_committed_predictions(
+        pages: Path) -> None:
+    predictions = pages.parent / "predictions"
+    reached = set()
     for page in [*pages.glob("*.html"), *pages.glob("cards/*.html")]:
         for link in _links(page):
             assert "://" not in link, (page.name, link)
             target = Path(os.path.normpath(page.parent / link))
-            assert target.is_relative_to(pages), f"{page.name} links {link} outside the site"
+            if target.is_relative_to(predictions):
+                reached.add(target.name)
+            else:
+                assert target.is_relative_to(pages), (
+                    f"{page.name} links {link}, outside the site and leaderboards/predictions/")
             assert target.is_file() and not target.is_symlink(), (page.name, link)
+    entries = load_entries(pages.parent / "entries")
+    assert reached == {e.predictions.name for e in entries}
+    assert not (pages / "predictions").exists(), "the site copies the predictions files"
+    assert not (SITE / "predictions").exists(), (
+        "leaderboards/site/predictions/ holds copies: delete it and rebuild with "
+        "`nsrmp-bench leaderboard --site-only`")
+
+
+def test_a_site_written_away_from_the_predictions_carries_copies(tmp_path: Path) -> None:
+    boards_dir = mirror(tmp_path)
+    entries = load_entries(boards_dir / "entries")
+    away = tmp_path / "publish" / "site"
+    write_site(read_boards(boards_dir), entries, away)
+    board = (away / "smoke-v2-test.html").read_text("utf-8")
+    entry = next(e for e in entries if e.split == "smoke-v2/test")
+    assert f'href="predictions/{entry.predictions.name}"' in board
+    assert (away / "predictions" / entry.predictions.name).read_bytes() == \
+        entry.predictions.read_bytes()
 
 
 def test_the_index_names_the_best_non_reference_entry_and_keeps_smoke_apart(

@@ -145,13 +145,13 @@ def test_the_writers_resume_and_write_the_bytes_they_wrote_without_it(
     plain zlib in its place: the same file; and the writer did resume."""
     pytest.importorskip("pybullet")
     from nsrmp_bench.storage import open as open_part
-    from nsrmp_bench.storage.writer import ShardWriter
+    from nsrmp_bench.storage.writer import shard_writer
 
     with open_part(smoke_v2_test) as part:
         episodes = [part.episode(i) for i in range(len(part))]
 
     def write(out: Path) -> tuple[bytes, int]:
-        with ShardWriter(out, 0, len(episodes), split="smoke-v2/test", background=False) as w:
+        with shard_writer(out, 0, len(episodes), split="smoke-v2/test", background=False) as w:
             for ep in episodes:
                 w.add(ep)
             record = w.commit()

@@ -26,13 +26,14 @@ pytest.importorskip("pybullet")
 from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage import chunks as chunks_module
+from nsrmp_bench.storage import episode_group as episode_group_module
 from nsrmp_bench.storage import open as open_part
-from nsrmp_bench.storage import writer as writer_module
+from nsrmp_bench.storage import process_writer as process_writer_module
 from nsrmp_bench.storage.arrays import episode_arrays
 from nsrmp_bench.storage.chunks import filtered_chunk, image_chunks, image_datasets, precompress
 from nsrmp_bench.storage.handover import Handover, Packed
 from nsrmp_bench.storage.records import ShardRecord
-from nsrmp_bench.storage.writer import Background, ShardWriter, writer_mode
+from nsrmp_bench.storage.writer import Background, ShardWriter, shard_writer, writer_mode
 
 
 def _sha(path: Path) -> str:
@@ -41,7 +42,7 @@ def _sha(path: Path) -> str:
 
 def _write_in_process(out: Path, episodes: list[Episode]) -> tuple[ShardWriter, ShardRecord]:
     """``episodes`` written by a writer process as one shard: the writer and its record."""
-    with ShardWriter(out, 0, len(episodes), split="smoke-v2/test", background="process") as w:
+    with shard_writer(out, 0, len(episodes), split="smoke-v2/test", background="process") as w:
         for ep in episodes:
             w.add(ep)
         return w, w.commit()
@@ -55,7 +56,7 @@ def test_background_writer_writes_the_bytes_of_the_synchronous_one(
     shas: dict[Background, tuple[str, str, list[str]]] = {}
     for background in (False, True, "process"):
         out = tmp_path / f"background-{background}"
-        with ShardWriter(out, 0, len(episodes), split="smoke-v2/test",
+        with shard_writer(out, 0, len(episodes), split="smoke-v2/test",
                          background=background, queue_size=1) as w:
             for ep in episodes:
                 w.add(ep)
@@ -71,13 +72,13 @@ def test_background_writer_writes_the_bytes_of_the_synchronous_one(
 def _slow_down_the_writer(monkeypatch: pytest.MonkeyPatch, seconds: float = 0.1) -> None:
     """Every episode written ``seconds`` late (a writer process forked afterwards inherits
     it)."""
-    write = writer_module.write_episode_group
+    write = episode_group_module.write_episode_group
 
     def slow(*args: Any, **kwargs: Any) -> None:
         time.sleep(seconds)
         write(*args, **kwargs)
 
-    monkeypatch.setattr(writer_module, "write_episode_group", slow)
+    monkeypatch.setattr(episode_group_module, "write_episode_group", slow)
 
 
 def test_a_caller_that_compresses_for_a_lagging_writer_process_writes_the_same_bytes(
@@ -109,7 +110,7 @@ def test_the_caller_compresses_the_last_episode_while_the_child_writes_the_one_b
     last = sum(1 for _, _, arr, kw in image_datasets(episode_arrays(episodes[1]))
                for _ in image_chunks(arr, kw))
     assert w.chunks_compressed_here == last > 0
-    with ShardWriter(tmp_path / "sync", 0, 2, split="smoke-v2/test", background=False) as s:
+    with shard_writer(tmp_path / "sync", 0, 2, split="smoke-v2/test", background=False) as s:
         for ep in episodes:
             s.add(ep)
         expected = s.commit()
@@ -124,7 +125,7 @@ def test_a_writer_process_that_cannot_open_its_file_fails_the_first_add(
     with open_part(smoke_v2_test) as part:
         first = part.episode(0)
     (tmp_path / "shard-0000000-0000002.h5.tmp").mkdir()  # where the child's file must go
-    w = ShardWriter(tmp_path, 0, 2, split="smoke-v2/test", background="process")
+    w = shard_writer(tmp_path, 0, 2, split="smoke-v2/test", background="process")
     with pytest.raises(RuntimeError, match=r"writing shard shard-0000000-0000002\.h5 failed"):
         w.add(first)
     w.abort()
@@ -137,7 +138,7 @@ def test_a_committed_writer_process_is_reaped(smoke_v2_test: Path, tmp_path: Pat
     next writer starts) and exited cleanly."""
     with open_part(smoke_v2_test) as part:
         first = part.episode(0)
-    w = ShardWriter(tmp_path, 0, 1, split="smoke-v2/test", background="process")
+    w = shard_writer(tmp_path, 0, 1, split="smoke-v2/test", background="process")
     assert w._child is not None
     proc = w._child._proc
     w.add(first)
@@ -157,7 +158,7 @@ def test_the_chunks_a_caller_compresses_reach_the_file_through_the_writer_proces
     with open_part(smoke_v2_test) as part:
         episodes = [part.episode(i) for i in range(len(part))]
     _slow_down_the_writer(monkeypatch)
-    with ShardWriter(tmp_path, 0, len(episodes), split="smoke-v2/test",
+    with shard_writer(tmp_path, 0, len(episodes), split="smoke-v2/test",
                      background="process") as w:
         monkeypatch.setattr(chunks_module, "filtered_chunk",
                             lambda chunk, kw, deflater=None: filtered_chunk(
@@ -190,13 +191,13 @@ def test_an_episode_with_some_chunks_compressed_beforehand_has_the_same_bytes(
     with open_part(smoke_v2_test) as part:
         episodes = [part.episode(i) for i in range(len(part))]
     out = tmp_path / "mixed"
-    with ShardWriter(out, 0, len(episodes), split="smoke-v2/test", background=False) as w:
+    with shard_writer(out, 0, len(episodes), split="smoke-v2/test", background=False) as w:
         for k, ep in enumerate(episodes):
             done = iter(range(10**6))
             # episode k: its first k chunks (all of them for the later episodes) given
             compressed = precompress(episode_arrays(ep), until=lambda k=k, d=done: next(d) >= k)
             assert len(compressed) == min(k, 3 * ep.symbolic.num_steps + 3)
-            w._add(ep, compressed)
+            w.add(ep, compressed)
         record = w.commit()
     assert _sha(out / record.file) == _sha(next(smoke_v2_test.glob("shard-*.h5")))
 
@@ -214,8 +215,8 @@ def test_chunks_given_compressed_are_the_chunks_stored(smoke_v2_test: Path, tmp_
                 marked = filtered_chunk(chunk, {**kw, "compression_opts": 9})
                 given[(f"{path}/{name}", k)] = np.frombuffer(marked, np.uint8)
     index = episode.symbolic.seed.index
-    with ShardWriter(tmp_path, index, index + 1, split="smoke-v2/test", background=False) as w:
-        w._add(episode, given)
+    with shard_writer(tmp_path, index, index + 1, split="smoke-v2/test", background=False) as w:
+        w.add(episode, given)
         record = w.commit()
     stored = 0
     with h5py.File(tmp_path / record.file) as f:
@@ -239,7 +240,7 @@ def test_an_error_on_the_writer_thread_surfaces_and_leaves_no_file(
 ) -> None:
     with open_part(smoke_v2_test) as part:
         first = part.episode(0)
-    w = ShardWriter(tmp_path, 0, 1, split="smoke-v2/test")
+    w = shard_writer(tmp_path, 0, 1, split="smoke-v2/test")
     w._data.create_group(first.id)  # the writer thread will find the episode's name taken
     w.add(first)
     with pytest.raises(RuntimeError, match=r"writing shard shard-0000000-0000001\.h5 failed"):
@@ -249,7 +250,7 @@ def test_an_error_on_the_writer_thread_surfaces_and_leaves_no_file(
 
 def test_queue_size_must_be_positive(tmp_path: Path) -> None:
     with pytest.raises(InvalidArgument, match="queue_size must be at least 1, got 0"):
-        ShardWriter(tmp_path, 0, 1, split="x/test", queue_size=0)
+        shard_writer(tmp_path, 0, 1, split="x/test", queue_size=0)
 
 
 def test_an_error_in_the_writer_process_surfaces_and_leaves_no_file(
@@ -260,7 +261,7 @@ def test_an_error_in_the_writer_process_surfaces_and_leaves_no_file(
     # the second episode under the first one's id: the child finds the name taken
     clash = dataclasses.replace(second, symbolic=dataclasses.replace(
         second.symbolic, id=first.symbolic.id))
-    w = ShardWriter(tmp_path, 0, 2, split="smoke-v2/test", background="process")
+    w = shard_writer(tmp_path, 0, 2, split="smoke-v2/test", background="process")
     w.add(first)
     with pytest.raises((RuntimeError, InvalidArgument),
                        match=r"writing shard shard-0000000-0000002\.h5 failed"):
@@ -280,7 +281,7 @@ def test_a_writer_process_that_fails_early_stops_its_caller_without_a_hang(
         episodes = [part.episode(i) for i in range(8)]
     clash = dataclasses.replace(episodes[1], symbolic=dataclasses.replace(
         episodes[1].symbolic, id=episodes[0].symbolic.id))
-    w = ShardWriter(tmp_path, 0, 8, split="smoke-v2/test", background="process")
+    w = shard_writer(tmp_path, 0, 8, split="smoke-v2/test", background="process")
     start = time.monotonic()
     with pytest.raises((RuntimeError, InvalidArgument),
                        match=r"writing shard shard-0000000-0000008\.h5 failed"):
@@ -298,7 +299,7 @@ def test_episodes_too_large_for_the_shared_slots_go_by_the_pipe_with_the_same_by
     with open_part(smoke_v2_test) as part:
         episodes = [part.episode(i) for i in range(len(part))]
     small = functools.partial(Handover, slot_bytes=64 * 1024)  # an episode is ~1.4 MB
-    monkeypatch.setattr(writer_module, "Handover", small)
+    monkeypatch.setattr(process_writer_module, "Handover", small)
     packed: list[bool] = []
     pack = Handover.pack
 
@@ -318,7 +319,7 @@ def test_a_short_shard_in_the_writer_process_is_refused_and_removed(
 ) -> None:
     with open_part(smoke_v2_test) as part:
         first = part.episode(0)
-    w = ShardWriter(tmp_path, 0, 2, split="smoke-v2/test", background="process")
+    w = shard_writer(tmp_path, 0, 2, split="smoke-v2/test", background="process")
     w.add(first)
     with pytest.raises(InvalidArgument, match="holds 1 episodes; add the missing ones"):
         w.commit()
@@ -331,10 +332,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 from nsrmp_bench.storage import open as open_part
-from nsrmp_bench.storage.writer import ShardWriter
+from nsrmp_bench.storage.writer import shard_writer
 with open_part(Path(sys.argv[1])) as part:
     first = part.episode(0)
-w = ShardWriter(sys.argv[2], 0, 2, split="smoke-v2/test", background="process")
+w = shard_writer(sys.argv[2], 0, 2, split="smoke-v2/test", background="process")
 w.add(first)
 print(w._child._proc.pid, flush=True)
 time.sleep(60)

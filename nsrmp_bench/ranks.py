@@ -1,0 +1,65 @@
+"""Ranks that do not pretend: entries whose intervals overlap share a rank.
+
+The reference rows (the registered baselines: oracle, noop, random) are bounds and get no
+rank. The other rows of a board, in IoU-M order, are ranked by position; an entry whose
+95% interval overlaps the interval of the first entry of its group (the group's leader)
+shares the leader's rank, marked "=", and the first entry that does not overlap the
+leader starts a new group at its own position. Comparing with the leader, not with the
+previous entry, keeps a long chain of small steps from tying the whole board. Needs only
+the standard library (the Markdown boards and the site both use it).
+
+A row's ``kind`` says whether it is a reference: :data:`REFERENCE_KIND`, the kind every
+registered baseline's row has (:func:`is_reference`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+__all__ = ["RANK_RULE", "REFERENCE_KIND", "is_reference", "shared_ranks"]
+
+REFERENCE_KIND = "baseline"
+"""The ``kind`` of a reference row (a registered baseline's): not ranked."""
+
+
+def is_reference(kind: str) -> bool:
+    """Whether a row of this ``kind`` is a reference (a registered baseline)."""
+    return kind == REFERENCE_KIND
+
+
+RANK_RULE = ("Ranks: the reference rows (oracle, noop, random) are bounds and are not "
+             "ranked. The other entries are ranked by IoU-M; an entry whose 95% interval "
+             "overlaps the interval of the first entry of its group (the group's leader) "
+             "shares the leader's rank, marked “=”, and the next entry outside it takes "
+             "its own position (1=, 1=, 3, …).")
+
+
+def _finite(value: Any) -> bool:
+    return value is not None and math.isfinite(float(value))
+
+
+def shared_ranks(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The rank shown for each row of a board in IoU-M order ("" for a reference row,
+    "2=" for a shared rank), by :data:`RANK_RULE`."""
+    ranks: list[int | None] = []
+    leader: tuple[int, float, float] | None = None
+    position = 0
+    for row in rows:
+        if is_reference(str(row["kind"])):
+            ranks.append(None)
+            continue
+        position += 1
+        triple = row["metrics"].get("iou_m") or [None, None, None]
+        low, high = triple[1], triple[2]
+        if not (_finite(low) and _finite(high)):
+            leader = None
+            ranks.append(position)
+        elif leader is not None and low <= leader[2] and leader[1] <= high:
+            ranks.append(leader[0])
+        else:
+            leader = (position, float(low), float(high))
+            ranks.append(position)
+    counts = {r: ranks.count(r) for r in ranks if r is not None}
+    return ["" if r is None else f"{r}=" if counts[r] > 1 else str(r) for r in ranks]
