@@ -247,11 +247,11 @@ def _arrays(raws: Sequence[msgspec.Raw], depth: int, width: int) -> tuple[F64, l
         raise _Unusual
     counts = [_children(starts[d], starts[d + 1]) for d in range(depth - 1)]
     values = _numbers(text, len(leaves), width)
-    if (
-        not (np.abs(values) <= _MAX_EXACT).all()  # NaN, infinity, beyond 2**53
-        or ((values == 0) & np.signbit(values)).any()  # -0: json reads the int 0 as +0.0
-    ):
-        raise _Unusual
+    if values.size and not -_MAX_EXACT <= values.min() <= values.max() <= _MAX_EXACT:
+        raise _Unusual  # NaN, infinity, beyond 2**53
+    negative = np.signbit(values)
+    if negative.any() and (values[negative] == 0).any():
+        raise _Unusual  # -0: json reads the int 0 as +0.0
     return values, counts
 
 
@@ -303,6 +303,9 @@ def numbers_arrow(text: bytes, width: int = 1) -> F64:
         raise _Unusual from exc
     if any(table.column(k).null_count for k in range(width)):
         raise _Unusual
+    if width == 1:
+        flat = np.asarray(table.column(0).to_numpy(), dtype=np.float64)
+        return (flat if flat.flags.writeable else flat.copy()).reshape(-1, 1)
     out = np.empty((table.num_rows, width))
     for k in range(width):
         out[:, k] = table.column(k).to_numpy()
