@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from itertools import repeat
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,7 +24,7 @@ from nsrmp_bench.errors import InvalidArgument, SubmissionError
 from nsrmp_bench.scoring.detected import resolve_detections
 from nsrmp_bench.scoring.gold import GoldTable
 from nsrmp_bench.scoring.matching import MATCH_IOU
-from nsrmp_bench.scoring.ragged import gather_rows, offsets_from_lengths, row_ids
+from nsrmp_bench.scoring.ragged import copy_rows, gather_rows, offsets_from_lengths, row_ids
 from nsrmp_bench.scoring.submission import Submission, SubmissionHeader
 from nsrmp_bench.scoring.validate import MAX_SHOWN, Problems
 
@@ -94,13 +95,16 @@ def _bounds(
     height: F64,
     tol: float,
 ) -> tuple[B, B]:
-    """Per row: outside the image by more than ``tol``; and outside it at all."""
-    x = arr[:, 0::2]
-    y = arr[:, 1::2]
-    w = width[:, None]
-    h = height[:, None]
-    far = np.asarray(((x < -tol) | (x > w + tol) | (y < -tol) | (y > h + tol)).any(axis=1))
-    out = np.asarray(((x < 0) | (x > w) | (y < 0) | (y > h)).any(axis=1))
+    """Per row: outside the image by more than ``tol``; and outside it at all.
+
+    A row ``x1, y1, x2, y2`` is outside when its least coordinate is below 0 or its
+    greatest x (y) beyond the width (height); NaN coordinates take no part.
+    """
+    low = np.fmin(np.fmin(arr[:, 0], arr[:, 1]), np.fmin(arr[:, 2], arr[:, 3]))
+    x = np.fmax(arr[:, 0], arr[:, 2])
+    y = np.fmax(arr[:, 1], arr[:, 3])
+    far: B = (low < -tol) | (x > width + tol) | (y > height + tol)
+    out: B = (low < 0) | (x > width) | (y > height)
     return far, out
 
 
@@ -115,7 +119,8 @@ class Matching:
     @classmethod
     def of(cls, sub: Submission, gold: GoldTable) -> Matching:
         """Look every record's id up in ``gold``."""
-        rows = np.array([gold.index.get(i, -1) for i in sub.ids], dtype=np.int64)
+        rows = np.fromiter(map(gold.index.get, sub.ids, repeat(-1)), dtype=np.int64,
+                           count=len(sub.ids))
         return cls(sub, gold, rows)
 
     @property
@@ -298,28 +303,29 @@ def lay_out(m: Matching, checked: CheckedRecords, warnings: list[str]) -> Predic
     line = np.full(n_inst, -1, dtype=np.int64)
     line[g_of] = sub.lines[recs]
 
-    pred_boxes = np.zeros_like(gold.final_boxes)
+    # np.zeros, not zeros_like: fresh zero pages instead of writing every zero first
+    pred_boxes = np.zeros(gold.final_boxes.shape, gold.final_boxes.dtype)
     src, _ = gather_rows(sub.obj_offsets, recs)
     dst, _ = gather_rows(gold.obj_offsets, g_of)
-    pred_boxes[dst] = checked.boxes[src]
+    copy_rows(pred_boxes, dst, checked.boxes, src)
     object_matched = None
     if sub.object_matched is not None:
         object_matched = np.ones(len(gold.final_boxes), dtype=bool)
         object_matched[dst] = sub.object_matched[src]
 
-    pred_pos = np.full_like(gold.final_positions, np.nan)
-    pred_pos[dst] = sub.positions[src]
+    pred_pos = np.full(gold.final_positions.shape, np.nan, gold.final_positions.dtype)
+    copy_rows(pred_pos, dst, sub.positions, src)
     has_pos = np.zeros(n_inst, dtype=bool)
     has_pos[g_of] = sub.has_positions[recs]
 
     use_sb = checked.use_step_boxes
     has_sb = np.zeros(n_inst, dtype=bool)
     has_sb[g_of] = use_sb[recs]
-    pred_sb = np.zeros_like(gold.step_boxes)
+    pred_sb = np.zeros(gold.step_boxes.shape, gold.step_boxes.dtype)
     sb_recs = recs[use_sb[recs]]
     src, _ = gather_rows(sub.stepbox_offsets, sb_recs)
     dst, _ = gather_rows(gold.stepbox_offsets, m.gold_row[sb_recs])
-    pred_sb[dst] = checked.step_boxes[src]
+    copy_rows(pred_sb, dst, checked.step_boxes, src)
 
     has_prog = np.zeros(n_inst, dtype=bool)
     has_prog[g_of] = sub.has_program[recs]

@@ -2,12 +2,11 @@
 
 JSON Lines: msgspec decodes each line's structure in C (ids and programs typed, the number
 fields kept as raw JSON text). The raw text of each number field, joined over the file, is
-checked as nested arrays of numbers from its bracket positions with numpy (depth, arrays
-per array against the line's ``boxes``, nothing but commas between arrays), and read in
-one call: by pyarrow's CSV reader where installed, one row per innermost array (which
-checks each array's count of numbers), else counted with numpy and read by numpy's text
-reader. Both round correctly, as ``json`` does. Parquet: the typed columns are checked and
-flattened with pyarrow.
+checked as nested arrays of numbers from its shape, the few bytes left with the numbers
+deleted (depth, arrays per array against the line's ``boxes``), and its numbers are read in
+one call: by pyarrow's CSV reader where installed, else by numpy's text reader. Both round
+correctly, as ``json`` does. Parquet: the typed columns are checked and flattened with
+pyarrow.
 
 This is a fast path only. It returns ``None`` as soon as anything is unusual (a problem,
 a blank line, a detections field, a number outside what it can prove it reads exactly);
@@ -22,6 +21,8 @@ from __future__ import annotations
 import io
 import json
 from collections.abc import Sequence
+from itertools import chain, repeat
+from operator import attrgetter, is_not
 from typing import Any
 
 import msgspec
@@ -42,14 +43,10 @@ _NULL = msgspec.Raw(b"null")
 _ACTION_CODE = {a: i for i, a in enumerate(ACTIONS)}
 _MAX_EXACT = 2.0**53  # larger numbers: the line-by-line parser decides (ints are refused)
 
-# the bytes of nested arrays of JSON numbers (whitespace removed): 1 a number's, 2 [, 3 ],
-# 0 a comma, 4 any other
-_SPACES = b" \t\r\n"
-_KIND = bytes(2 if c == ord("[") else 3 if c == ord("]") else 0 if c == ord(",") else
-              1 if c in b"0123456789.-+eE" else 4 for c in range(256))
-_NUMBERS_ONLY = bytes(c if c in b"0123456789.-+eE" else ord("\n") for c in range(256))
-_ROWS = bytes(ord("\n") if c in b"[]" else c for c in range(256))
-_NEWLINE = ord("\n")
+_NUMBER_BYTES = b"0123456789.-+eE"  # the bytes of JSON numbers
+_SPACES = b" \t\r\n"  # JSON's whitespace
+_LEAF = b"b"  # an innermost array, in the shape left when numbers are deleted
+_NUMBERS_ONLY = bytes(c if c in _NUMBER_BYTES else ord("\n") for c in range(256))
 
 
 class _Line(msgspec.Struct, forbid_unknown_fields=True):
@@ -66,6 +63,11 @@ class _Line(msgspec.Struct, forbid_unknown_fields=True):
 
 
 _DECODER = msgspec.json.Decoder(_Line)
+# each line's field, for map(): faster than a comprehension over 100,000 lines
+_ID, _BOXES, _PROGRAM, _STEP_BOXES = (attrgetter(f) for f in ("id", "boxes", "program",
+                                                              "step_boxes"))
+_PICK, _PLACE, _POSITIONS, _DETECTIONS = (attrgetter(f) for f in ("pick", "place",
+                                                                  "positions", "detections"))
 
 
 class _Unusual(Exception):
@@ -98,53 +100,59 @@ def _read_jsonl(source: str, data: bytes) -> Submission:
     if end < 0 or not data[:end].strip():
         raise _Unusual
     header = _header(source, data[:end], "line")
-    body = data[end + 1 :]
-    n_lines = body.count(b"\n") + (1 if body and not body.endswith(b"\n") else 0)
+    body = memoryview(data)[end + 1 :]  # no copy of the file
+    n_lines = data.count(b"\n", end + 1) + (0 if data.endswith(b"\n") else 1)
     try:
         lines: list[_Line] = _DECODER.decode_lines(body)
     except (msgspec.DecodeError, RecursionError) as exc:
         raise _Unusual from exc
     if not lines or len(lines) != n_lines:  # blank lines, or several objects on one line
         raise _Unusual
-    ids = tuple(line.id for line in lines)
-    if any(line.detections != _NULL for line in lines):
+    ids = tuple(map(_ID, lines))
+    if any(map(_NULL.__ne__, map(_DETECTIONS, lines))):
         raise _Unusual
-    boxes, (nobj,) = _arrays([line.boxes for line in lines], 2, 4)
+    boxes, (nobj,) = _arrays(list(map(_BOXES, lines)), 2, 4)
     if not nobj.all():
         raise _Unusual
 
-    has_sb = np.array([line.step_boxes != _NULL for line in lines], dtype=bool)
+    has_sb, sb_raws = _present(list(map(_STEP_BOXES, lines)))
     nstates = np.zeros(len(lines), dtype=np.int64)
     step_boxes = np.zeros((0, 4))
-    if has_sb.any():
-        step_boxes, (states, per_state) = _arrays(
-            [line.step_boxes for line in lines if line.step_boxes != _NULL], 3, 4
-        )
+    if sb_raws:
+        step_boxes, (states, per_state) = _arrays(sb_raws, 3, 4)
         if (per_state != np.repeat(nobj[has_sb], states)).any():
             raise _Unusual
         nstates[has_sb] = states
 
-    has_pos = np.array([line.positions != _NULL for line in lines], dtype=bool)
+    has_pos, pos_raws = _present(list(map(_POSITIONS, lines)))
     positions = np.full((len(boxes), 3), np.nan)
-    if has_pos.any():
-        rows, (count,) = _arrays(
-            [line.positions for line in lines if line.positions != _NULL], 2, 3
-        )
+    if pos_raws:
+        rows, (count,) = _arrays(pos_raws, 2, 3)
         if (count != nobj[has_pos]).any():
             raise _Unusual
         positions[np.repeat(has_pos, nobj)] = rows
 
-    pick = _points([line.pick for line in lines])
-    place = _points([line.place for line in lines])
-    has_prog = np.array([line.program is not None for line in lines], dtype=bool)
-    prog_len = np.array([len(line.program or ()) for line in lines], dtype=np.int64)
-    steps = [step for line in lines if line.program for step in line.program]
+    pick = _points(list(map(_PICK, lines)))
+    place = _points(list(map(_PLACE, lines)))
+    programs = list(map(_PROGRAM, lines))
+    has_prog = np.fromiter(map(is_not, programs, repeat(None)), dtype=bool, count=len(lines))
+    prog_len = np.fromiter((len(p) if p else 0 for p in programs), dtype=np.int64,
+                           count=len(lines))
+    steps = list(chain.from_iterable(filter(None, programs)))
+    actions, subjects, references = zip(*steps, strict=True) if steps else ((), (), ())
     return _submission(
         header, source, ids, np.arange(2, len(lines) + 2, dtype=np.int64), nobj, boxes,
-        has_sb, nstates, step_boxes, has_prog, prog_len,
-        [a for a, _, _ in steps], [s for _, s, _ in steps], [r for _, _, r in steps],
+        has_sb, nstates, step_boxes, has_prog, prog_len, actions, subjects, references,
         pick, place, has_pos, positions, "line",
     )
+
+
+def _present(raws: list[msgspec.Raw]) -> tuple[NDArray[np.bool_], list[msgspec.Raw]]:
+    """Which lines give a field (not ``null``), and the values they give."""
+    present = np.fromiter(map(_NULL.__ne__, raws), dtype=bool, count=len(raws))
+    if present.all():
+        return present, raws
+    return present, [r for r, p in zip(raws, present.tolist(), strict=True) if p]
 
 
 def _submission(
@@ -160,7 +168,8 @@ def _submission(
     for arr in (boxes, step_boxes):
         if (arr[:, 2] < arr[:, 0]).any() or (arr[:, 3] < arr[:, 1]).any():
             raise _Unusual
-    codes = np.array([_ACTION_CODE.get(a, -1) for a in actions], dtype=np.int64)
+    codes = np.fromiter(map(_ACTION_CODE.get, actions, repeat(-1)), dtype=np.int64,
+                        count=len(actions))
     subj = np.asarray(subjects, dtype=np.int64)
     ref = np.asarray(references, dtype=np.int64)
     n_of_step = np.repeat(nobj, prog_len)
@@ -198,9 +207,9 @@ def _submission(
 def _points(raws: list[msgspec.Raw]) -> F64:
     """``[x, y]`` per line, NaN where absent."""
     out = np.full((len(raws), 2), np.nan)
-    present = np.array([r != _NULL for r in raws], dtype=bool)
-    if present.any():
-        rows, _ = _arrays([r for r in raws if r != _NULL], 1, 2)
+    present, given = _present(raws)
+    if given:
+        rows, _ = _arrays(given, 1, 2)
         out[present] = rows
     return out
 
@@ -211,68 +220,58 @@ def _arrays(raws: Sequence[msgspec.Raw], depth: int, width: int) -> tuple[F64, l
     Returns the ``(M, width)`` rows and, for each level above the innermost, the number of
     arrays each array holds (for depth 2: boxes per line; for depth 3: states per line and
     boxes per state). Raises :class:`_Unusual` for anything but that shape of numbers.
-    msgspec has checked that each raw value is valid JSON, so only the shape is left.
+
+    msgspec has checked that each raw value is valid JSON, so only the shape is left. With
+    the numbers and spaces deleted, an innermost array of ``width`` numbers reads
+    ``[,,,]`` (width 4) and becomes one leaf byte; the few bytes left are checked with
+    numpy (only brackets, commas and leaves; leaves exactly ``depth - 1`` arrays deep, no
+    array deeper). The numbers, one a line, are read in one call and counted: a number
+    outside an innermost array of ``width`` is one too many.
     """
     text = b"".join(raws)
-    if any(space in text for space in _SPACES):
-        text = text.translate(None, _SPACES)
-    kind = np.frombuffer(text.translate(_KIND), dtype=np.uint8)  # 1 digit, 2 [, 3 ], 0 ,
-    where = np.flatnonzero(kind >= 2)  # the brackets, in order (and any other byte)
-    kinds = kind[where]
-    if kinds.max(initial=0) > 3:  # strings, objects, true, false, null
+    leaf = b"[" + b"," * (width - 1) + b"]"
+    shape = text.translate(None, _NUMBER_BYTES + _SPACES).replace(leaf, _LEAF)
+    if shape.translate(None, b"[]," + _LEAF):  # strings, objects, true, false, null
         raise _Unusual
-    opening = kinds == 2
-    level = np.cumsum(np.where(opening, 1, -1).astype(np.int32))  # depth after each bracket
-    if level.max(initial=0) > depth:
+    s = np.frombuffer(shape, dtype=np.uint8)
+    opening = s == ord("[")
+    level = np.cumsum(opening.astype(np.int32) - (s == ord("]")))  # depth after each byte
+    if level.max(initial=0) >= depth:  # an innermost array of another width, or deeper
         raise _Unusual
-    starts = [where[opening & (level == d)] for d in range(1, depth + 1)]
-    if len(starts[0]) != len(raws):
+    leaves = np.flatnonzero(s == _LEAF[0])
+    if (level[leaves] != depth - 1).any():  # a leaf at another depth
         raise _Unusual
-    # an innermost array's closing bracket is the next bracket after its opening one;
-    # between any other two brackets there is nothing or one comma (a number is an error)
-    innermost = opening & (level == depth)
-    inner = np.flatnonzero(innermost)
-    gap = np.diff(where) - 1
-    outside = ~innermost[:-1]
-    if (gap[outside] > 1).any():
-        raise _Unusual
-    between = where[:-1][outside & (gap == 1)] + 1  # commas between arrays, or a number
-    if (kind[between] != 0).any():
+    starts = [np.flatnonzero(opening & (level == d)) for d in range(1, depth)]
+    starts.append(leaves)
+    if len(starts[0]) != len(raws):  # a raw value that is not an array
         raise _Unusual
     counts = [_children(starts[d], starts[d + 1]) for d in range(depth - 1)]
-    values = _rows(text, kind, where, inner, between, width)
-    if (
-        not np.isfinite(values).all()
-        or (np.abs(values) > _MAX_EXACT).any()
-        or ((values == 0) & np.signbit(values)).any()  # -0: json reads the int 0 as +0.0
-    ):
-        raise _Unusual
+    values = _numbers(text, len(leaves), width)
+    if values.size and not -_MAX_EXACT <= values.min() <= values.max() <= _MAX_EXACT:
+        raise _Unusual  # NaN, infinity, beyond 2**53
+    negative = np.signbit(values)
+    if negative.any() and (values[negative] == 0).any():
+        raise _Unusual  # -0: json reads the int 0 as +0.0
     return values, counts
 
 
-def _rows(text: bytes, kind: NDArray[np.uint8], where: I64, inner: I64, between: I64,
-          width: int) -> F64:
-    """The numbers of each innermost array (``width`` each, else :class:`_Unusual`)."""
-    if not len(inner):
+def _numbers(text: bytes, rows: int, width: int) -> F64:
+    """The ``rows`` innermost arrays' numbers, ``(rows, width)``, from the joined raw text
+    of arrays whose shape is checked; any other count of numbers (one outside an innermost
+    array) is :class:`_Unusual`. The numbers are read one a line: by pyarrow's CSV reader
+    where installed, else by numpy's text reader."""
+    lines = text.translate(_NUMBERS_ONLY)
+    if not rows:
+        if lines.strip():
+            raise _Unusual
         return np.zeros((0, width))
-    try:  # one CSV row per innermost array: pyarrow checks each row's count
-        lines = np.frombuffer(text, dtype=np.uint8).copy()
-        lines[between] = _NEWLINE
-        values = numbers_arrow(lines.tobytes().translate(_ROWS), width)
-    except ImportError:  # count each array's numbers here, then read them with numpy
-        digit = kind == 1
-        first = np.flatnonzero(digit[1:] > digit[:-1]) + 1  # where each number starts
-        inside = (np.searchsorted(first, where[inner + 1])
-                  - np.searchsorted(first, where[inner]))
-        if (inside != width).any():
-            raise _Unusual from None
-        flat = numbers_numpy(text.translate(_NUMBERS_ONLY))
-        if len(flat) != width * len(inner):
-            raise _Unusual from None
-        values = flat.reshape(-1, width)
-    if len(values) != len(inner):  # an empty innermost array
+    try:
+        flat = numbers_arrow(lines).reshape(-1)
+    except ImportError:
+        flat = numbers_numpy(lines)
+    if len(flat) != rows * width:
         raise _Unusual
-    return values
+    return flat.reshape(rows, width)
 
 
 def _children(parents: I64, children: I64) -> I64:
@@ -304,6 +303,9 @@ def numbers_arrow(text: bytes, width: int = 1) -> F64:
         raise _Unusual from exc
     if any(table.column(k).null_count for k in range(width)):
         raise _Unusual
+    if width == 1:
+        flat = np.asarray(table.column(0).to_numpy(), dtype=np.float64)
+        return (flat if flat.flags.writeable else flat.copy()).reshape(-1, 1)
     out = np.empty((table.num_rows, width))
     for k in range(width):
         out[:, k] = table.column(k).to_numpy()

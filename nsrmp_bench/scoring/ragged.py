@@ -2,7 +2,8 @@
 
 Row ``i`` of a ragged array ``values`` with ``offsets`` is ``values[offsets[i]:offsets[i+1]]``;
 ``offsets`` has one more entry than there are rows and starts at 0. These helpers turn
-per-row lengths into offsets, label every flat element with its row, and gather rows.
+per-row lengths into offsets, label every flat element with its row, gather rows, and
+copy rows between arrays.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["gather_rows", "offsets_from_lengths", "positions_in_rows", "row_ids"]
+__all__ = ["copy_rows", "gather_rows", "offsets_from_lengths", "positions_in_rows", "row_ids"]
 
 I64 = NDArray[np.int64]
 
@@ -53,3 +54,19 @@ def gather_rows(offsets: NDArray[Any], rows: NDArray[Any]) -> tuple[I64, I64]:
         int(new_offsets[-1]), dtype=np.int64
     )
     return idx, new_offsets
+
+
+def copy_rows(dst: NDArray[Any], dst_idx: NDArray[Any], src: NDArray[Any],
+              src_idx: NDArray[Any]) -> None:
+    """``dst[dst_idx] = src[src_idx]`` along the first axis, in place.
+
+    Rows of two C-contiguous 2-D arrays of one dtype and width move as single items (byte
+    strings as wide as a row), which numpy copies faster than rows of separate values;
+    anything else is assigned as written.
+    """
+    if (dst.ndim != 2 or dst.dtype != src.dtype or dst.shape[1:] != src.shape[1:]
+            or not dst.shape[1] or not dst.flags.c_contiguous or not src.flags.c_contiguous):
+        dst[dst_idx] = src[src_idx]
+        return
+    row = np.dtype((np.void, dst.dtype.itemsize * dst.shape[1]))
+    dst.view(row).reshape(-1)[dst_idx] = src.view(row).reshape(-1)[src_idx]

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from scoring_factory import HEADER, synthetic_tables, write_table_jsonl
 
+from nsrmp_bench.scoring import bulk as bulk_module
 from nsrmp_bench.scoring.bulk import (
     numbers_arrow,
     numbers_numpy,
@@ -35,6 +36,11 @@ def assert_same(a: Submission, b: Submission) -> None:
             assert x.tobytes() == y.tobytes(), name  # bit for bit, NaN and -0.0 included
         else:
             assert x == y, name
+
+
+def _no_pyarrow(text: bytes, width: int = 1) -> Any:
+    """``numbers_arrow`` as on the core install, without pyarrow."""
+    raise ImportError("pyarrow")
 
 
 def bulk(path: Path) -> Submission:
@@ -82,6 +88,19 @@ def test_every_field_reads_the_same(tmp_path: Path, separators: tuple[str, str])
     path = tmp_path / "pred.jsonl"
     path.write_text("\r\n".join(lines), encoding="utf-8")  # CRLF, no final newline
     assert_same(bulk(path), line_by_line(path))
+
+
+def test_without_pyarrow_every_field_reads_the_same(tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """The core install (no pyarrow) reads the numbers with numpy: the same table."""
+    rng = np.random.default_rng(4)
+    lines = [json.dumps({"header": HEADER.to_dict()})]
+    lines += [json.dumps(_record(rng, k)) for k in range(200)]
+    path = tmp_path / "pred.jsonl"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    expected = line_by_line(path)
+    monkeypatch.setattr(bulk_module, "numbers_arrow", _no_pyarrow)
+    assert_same(bulk(path), expected)
 
 
 def test_parquet_reads_the_same_as_row_by_row(tmp_path: Path) -> None:
@@ -176,6 +195,19 @@ GOOD = '{"id": "e0", "boxes": [[1, 2, 3, 4]]}'
         ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "step_boxes": [[[1, 2, 3, 4]], [1, 2, 3, 4]]}'],
         ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "step_boxes": [[[1, 2, 3, 4]], [[]]]}'],
         ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "pick": [[1, 2]]}'],
+        ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "pick": 5}'],
+        ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "pick": [1, "2"]}'],
+        ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "pick": [1, -0]}'],
+        ['{"id": "e0", "boxes": [["1", 2, 3, 4]]}'],
+        ['{"id": "e0", "boxes": [[1, 2, 3, 4], [1, 2, 3, 4, [5]]]}'],
+        ['{"id": "e0", "boxes": [[1, 2, 3, 4], [5]]}'],
+        ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "step_boxes": [[[1, 2, 3, 4]], 5]}'],
+        ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "step_boxes": [[[1, 2, 3, 4], 5]]}'],
+        ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "step_boxes": [5]}'],
+        ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "step_boxes": [[5]]}'],
+        ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "step_boxes": [[[1, 2, 3, 4]]], "pick": [5]}'],
+        ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "positions": [[1, 2, 3], [4, 5, 6]]}'],
+        ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "positions": [[1, 2, 3, {}]]}'],
         ['{"id": "e0", "boxes": []}'],
         ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "step_boxes": [[]]}'],
         ['{"id": "e0", "boxes": [[1, 2, 3, 4]], "positions": [[1, 2]]}'],
@@ -190,7 +222,11 @@ GOOD = '{"id": "e0", "boxes": [[1, 2, 3, 4]]}'
         ['[1, 2]'],
     ],
 )
-def test_unusual_files_go_line_by_line(tmp_path: Path, body: list[str]) -> None:
+@pytest.mark.parametrize("numbers", ["pyarrow", "numpy"])
+def test_unusual_files_go_line_by_line(tmp_path: Path, body: list[str], numbers: str,
+                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    if numbers == "numpy":
+        monkeypatch.setattr(bulk_module, "numbers_arrow", _no_pyarrow)
     path = tmp_path / "p.jsonl"
     path.write_text("\n".join([json.dumps({"header": HEADER.to_dict()}), *body]) + "\n")
     assert read_jsonl_bulk(str(path), path.read_bytes()) is None
