@@ -31,7 +31,7 @@ BREAKDOWNS = ("short", "all", "none")
 :data:`SHORT_BREAKDOWN`, every category (templates too), or none."""
 
 
-def json_ready(value: Any) -> Any:
+def json_ready(value: object) -> Any:
     """``value`` with NaN and infinities as None and numpy scalars as Python ones."""
     if isinstance(value, dict):
         return {str(k): json_ready(v) for k, v in value.items()}
