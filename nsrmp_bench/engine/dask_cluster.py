@@ -37,7 +37,7 @@ import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import CancelledError
 from pathlib import Path
-from types import TracebackType
+from types import ModuleType, TracebackType
 from typing import TYPE_CHECKING, Any
 
 from nsrmp_bench._optional import require
@@ -116,10 +116,10 @@ class DaskEngine(Engine):
         if scheduler is None and workers < 1:
             msg = f"workers must be >= 1 for a LocalCluster, got {workers}"
             raise InvalidArgument(msg)
-        self._dd: Any = require("distributed")  # untyped calls: keep them Any
+        self._dd: ModuleType = require("distributed")  # untyped calls: keep them Any
         self.scheduler = scheduler
         self.workers = workers
-        self._dask: Any = require("dask")
+        self._dask: ModuleType = require("dask")
         if connect_timeout_s is None:  # Dask's own knob (DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT)
             connect_timeout_s = float(self._dask.utils.parse_timedelta(
                 self._dask.config.get("distributed.comm.timeouts.connect"), default="seconds"))

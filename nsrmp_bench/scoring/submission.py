@@ -26,6 +26,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -220,7 +221,7 @@ PARQUET_COLUMNS = ("id", "boxes", "program", "step_boxes", "pick", "place", "pos
 """The columns of a Parquet predictions file (one row per instance)."""
 
 
-def _parquet_table(pa: Any, header: SubmissionHeader, records: list[dict[str, Any]]) -> Any:
+def _parquet_table(pa: ModuleType, header: SubmissionHeader, records: list[dict[str, Any]]) -> Any:
     """An Arrow table of the records; a program is a list of (action, subject, reference)."""
     rows = []
     for r in records:

@@ -25,6 +25,7 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -67,7 +68,7 @@ def _write_png(path: Path, rgb: U8) -> None:
     atomic_write_bytes(path, bytes(buf))
 
 
-def _label(cv2: Any, image: U8, text: str) -> U8:
+def _label(cv2: ModuleType, image: U8, text: str) -> U8:
     bar = np.full((18, image.shape[1], 3), 250, np.uint8)
     cv2.putText(bar, text, (4, 13), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (20, 20, 20), 1,
                 cv2.LINE_AA)
