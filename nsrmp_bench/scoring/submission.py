@@ -30,7 +30,7 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.errors import InvalidArgument
@@ -94,7 +94,7 @@ class SubmissionHeader:
         return out
 
 
-def _round_list(values: Any, decimals: int, where: str) -> Any:
+def _round_list(values: ArrayLike, decimals: int, where: str) -> Any:
     try:
         arr = np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError) as exc:
