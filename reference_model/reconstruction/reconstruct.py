@@ -26,7 +26,7 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from types import ModuleType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,6 +36,10 @@ from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.reference_model.reconstruction.inputs import box_mask, moved_objects
 from nsrmp_bench.reference_model.reconstruction.ssim import ssim_scores
 from nsrmp_bench.storage.atomic import atomic_write_bytes, atomic_write_text
+
+if TYPE_CHECKING:
+    from nsrmp_bench.episode import Episode
+    from nsrmp_bench.scoring.submission import Submission
 
 __all__ = ["RENDERERS", "StepScore", "reconstruct_file", "summarise"]
 
@@ -130,7 +134,7 @@ def summarise(scores: list[StepScore]) -> dict[str, Any]:
     }
 
 
-def _records(sub: Any) -> list[tuple[int, NDArray[Any], NDArray[Any] | None]]:
+def _records(sub: Submission) -> list[tuple[int, NDArray[Any], NDArray[Any] | None]]:
     """Per record: its index, its step boxes (S, N, 4) and positions (N, 3) or None."""
     out = []
     for r in range(len(sub)):
@@ -176,7 +180,7 @@ def reconstruct_file(predictions: str | Path, data: str | Path, out: str | Path,
         msg = (f"{predictions}: the header says split {sub.header.split!r} but {data} holds "
                f"split {split!r}; pass that split's data with --data")
         raise InvalidArgument(msg)
-    render: Any
+    render: Callable[[Episode, NDArray[Any], NDArray[Any] | None], list[U8]]
     sim = None
     if renderer == "sim":
         if sim_renderer is None:
@@ -197,7 +201,7 @@ def reconstruct_file(predictions: str | Path, data: str | Path, out: str | Path,
             checkpoint if checkpoint is not None else shipped_checkpoint(MODEL_ID))
         items = EpisodeDataset(collection)  # the network reads each episode's inputs
 
-        def render(ep: Any, steps: NDArray[Any], _pos: Any) -> list[U8]:
+        def render(ep: Episode, steps: NDArray[Any], _pos: NDArray[Any] | None) -> list[U8]:
             return net.reconstruct(items[collection.position(ep.id)], steps)
 
     out = Path(out)
