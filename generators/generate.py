@@ -37,6 +37,7 @@ from nsrmp_bench.storage.writer import Background, shard_writer
 
 if TYPE_CHECKING:
     from nsrmp_bench.generators.world.realise import Placer
+    from nsrmp_bench.generators.world.world import World
 
 __all__ = [
     "DEFAULT_SHARD_SIZE",
@@ -79,7 +80,7 @@ def realise_config(
     entropy: int,
     index: int,
     episode_id: str,
-    world: Any,
+    world: World,
     *,
     executor: str = "teleport",
     stats: AttemptLog | None = None,
@@ -100,7 +101,7 @@ def realise_config(
 
 
 def make_episode(
-    spec: SplitSpec, part: str, index: int, world: Any, stats: AttemptLog | None = None
+    spec: SplitSpec, part: str, index: int, world: World, stats: AttemptLog | None = None
 ) -> Episode:
     """Instance ``index`` of ``spec``'s ``part``, realised in ``world`` (a World).
 

@@ -9,9 +9,9 @@ moves on to attempt ``a + 1``, up to a bounded number of attempts.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.episode import SeedInfo, SymbolicEpisode
@@ -20,6 +20,10 @@ from nsrmp_bench.generators.instructions import render_instruction
 from nsrmp_bench.generators.program_sampler import sample_program
 from nsrmp_bench.generators.scene_sampler import sample_scene
 from nsrmp_bench.generators.templates import load_language
+
+if TYPE_CHECKING:
+    from nsrmp_bench.generators.program_sampler import ProgramSample
+    from nsrmp_bench.scene import SceneObject
 
 __all__ = [
     "GENERATOR_ID", "AttemptLog", "EpisodeConfig", "first_valid", "sample_episode",
@@ -30,7 +34,8 @@ GENERATOR_ID = "symbolic-v1"
 T = TypeVar("T")
 
 
-def _referenced_pairs(sample: Any, objects: Any) -> set[tuple[str, str]]:
+def _referenced_pairs(sample: ProgramSample,
+                      objects: Sequence[SceneObject]) -> set[tuple[str, str]]:
     out: set[tuple[str, str]] = set()
     for step in sample.grounded:
         for i in (step.subject, step.reference):

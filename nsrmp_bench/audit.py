@@ -16,15 +16,35 @@ from __future__ import annotations
 
 import re
 from collections import defaultdict
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Protocol
 
 from nsrmp_bench.canonical import content_hash
 from nsrmp_bench.episode import SymbolicEpisode
 from nsrmp_bench.split_specs import load_split
 
 __all__ = ["AuditReport", "audit"]
+
+
+class HeldOutWords(Protocol):
+    """A slot's words as the generators' template language holds them."""
+
+    @property
+    def held_out(self) -> Iterable[str]: ...
+
+
+class TemplateLanguage(Protocol):
+    """What the audit reads of the generators' ``load_language()``."""
+
+    @property
+    def words(self) -> Mapping[str, HeldOutWords]: ...
+
+    @property
+    def connectors(self) -> HeldOutWords: ...
+
+    @property
+    def final_connectors(self) -> HeldOutWords: ...
 
 
 @dataclass
@@ -49,7 +69,7 @@ class AuditReport:
         return out
 
 
-def held_out_words(language: Any) -> set[str]:
+def held_out_words(language: TemplateLanguage) -> set[str]:
     """The held-out words and connectors of a template language (the generators'
     ``load_language()``; the caller passes it, as the core never imports the generators)."""
     words = {w for c in language.words.values() for w in c.held_out}

@@ -13,12 +13,12 @@ from typing import Any
 __all__ = ["canonical_json", "content_hash", "sha256_file"]
 
 
-def canonical_json(value: Any) -> str:
+def canonical_json(value: object) -> str:
     """Serialise ``value`` to canonical, strict JSON text."""
     return json.dumps(value, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 
-def content_hash(value: Any) -> str:
+def content_hash(value: object) -> str:
     """The hex sha256 of ``value``'s canonical JSON."""
     return hashlib.sha256(canonical_json(value).encode("utf-8")).hexdigest()
 

@@ -15,7 +15,7 @@ import glob
 import importlib
 import os
 from functools import cache
-from typing import Any
+from types import ModuleType
 
 import numpy as np
 
@@ -27,7 +27,7 @@ DISPATCH_KEYS = ("numpy_simd", "blas")
 
 def _cpu_tables() -> tuple[list[str], list[str], dict[str, bool]]:
     try:
-        table: Any = importlib.import_module("numpy._core._multiarray_umath")
+        table: ModuleType = importlib.import_module("numpy._core._multiarray_umath")
     except ImportError:  # numpy 1.x
         table = importlib.import_module("numpy.core._multiarray_umath")
     return (list(table.__cpu_baseline__), list(table.__cpu_dispatch__),

@@ -254,7 +254,7 @@ def evaluate_phase(test_annotation_file: str | os.PathLike[str],
             "submission_result": numbers}
 
 
-def _yaml(data: Any) -> str:
+def _yaml(data: object) -> str:
     text: str = require("yaml").safe_dump(data, sort_keys=False, allow_unicode=True, width=88)
     return text
 

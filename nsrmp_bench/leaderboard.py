@@ -195,7 +195,7 @@ def _check_protocol(entry: Entry, data: Path) -> None:
         raise InvalidArgument(msg)
 
 
-def _nan_to_none(value: Any) -> Any:
+def _nan_to_none(value: object) -> object:
     if isinstance(value, float) and math.isnan(value):
         return None
     if isinstance(value, list | tuple):

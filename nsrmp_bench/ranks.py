@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, SupportsFloat
 
 __all__ = ["RANK_RULE", "REFERENCE_KIND", "is_reference", "shared_ranks"]
 
@@ -36,7 +36,7 @@ RANK_RULE = ("Ranks: the reference rows (oracle, noop, random) are bounds and ar
              "its own position (1=, 1=, 3, …).")
 
 
-def _finite(value: Any) -> bool:
+def _finite(value: SupportsFloat | None) -> bool:
     return value is not None and math.isfinite(float(value))
 
 

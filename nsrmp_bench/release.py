@@ -15,7 +15,7 @@ import os
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from types import ModuleType
 
 from nsrmp_bench._optional import require
 from nsrmp_bench.canonical import sha256_file
@@ -134,7 +134,7 @@ def download(
     ``registry.txt`` is not read) and the committed ``manifest.json`` is written locally;
     otherwise, or with ``trust_mirror_registry``, the mirror's ``registry.txt`` is used.
     """
-    pooch: Any = require("pooch")
+    pooch: ModuleType = require("pooch")
     pooch.get_logger().setLevel("WARNING")
     url = base_url or os.environ.get(MIRROR_ENV)
     if not url:
@@ -214,7 +214,7 @@ class ByteProgress:
             self._started = False
 
 
-def _fetch(pooch: Any, url: str, out_dir: Path, entry: RegistryEntry | None,
+def _fetch(pooch: ModuleType, url: str, out_dir: Path, entry: RegistryEntry | None,
            *, progress: bool = False) -> Path:
     name = entry.path if entry is not None else REGISTRY_NAME
     target = out_dir / name

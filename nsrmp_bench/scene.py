@@ -156,7 +156,7 @@ def state_to_list(state: State) -> list[dict[str, Any]]:
     return [p.to_dict() for p in state]
 
 
-def state_from_list(data: Any) -> State:
+def state_from_list(data: object) -> State:
     """Inverse of :func:`state_to_list`."""
     if not isinstance(data, list):
         msg = f"a state must be a list of poses, got {type(data).__name__}"

@@ -304,14 +304,14 @@ def resolve_split(split: str) -> SplitSpec:
     return load_split(split)
 
 
-def _positive(value: Any, what: str, where: str) -> int:
+def _positive(value: object, what: str, where: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < 0:
         msg = f"{where}: {what} is {value!r}; expected a non-negative integer"
         raise InvalidArgument(msg)
     return value
 
 
-def _entropy(value: Any, where: str) -> int:
+def _entropy(value: object, where: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < 0:
         msg = (f"{where}: entropy is {value!r}; expected a non-negative integer, or "
                f"{PRIVATE_ENTROPY!r} for a private part (its secret given at generation)")

@@ -32,7 +32,7 @@ CONFIGS: dict[str, type[ModelConfig]] = {}
 """Every config class, by ``module.QualName`` (filled as the classes are defined)."""
 
 
-def _type_name(tp: Any) -> str:
+def _type_name(tp: object) -> str:
     return getattr(tp, "__name__", None) or str(tp).replace("typing.", "")
 
 
@@ -138,7 +138,7 @@ class ModelConfig:
     """Values of fields added after checkpoints were shipped, as those checkpoints were
     trained (a field's default is what new runs use)."""
 
-    def __init_subclass__(cls, **kwargs: Any) -> None:
+    def __init_subclass__(cls, **kwargs: object) -> None:
         super().__init_subclass__(**kwargs)
         CONFIGS[f"{cls.__module__}.{cls.__qualname__}"] = cls
 

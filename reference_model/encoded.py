@@ -15,6 +15,7 @@ from typing import Any, cast
 
 import numpy as np
 import torch
+from numpy.typing import ArrayLike
 from torch import Tensor
 
 from nsrmp_bench.errors import InvalidArgument
@@ -116,7 +117,7 @@ def encode_targets(enc: Encoded, items: Iterable[Mapping[str, Any]],
     return enc
 
 
-def _np(x: Any) -> np.ndarray[Any, Any]:
+def _np(x: Tensor | ArrayLike) -> np.ndarray[Any, Any]:
     return x.numpy() if isinstance(x, Tensor) else np.asarray(x)
 
 

@@ -27,6 +27,7 @@ import os
 import sys
 import time
 from collections.abc import Sequence
+from types import ModuleType
 from typing import Any, Final
 
 SHIM_VERSION: Final = "nsrm-original-shim-v1"
@@ -42,26 +43,27 @@ def run(dg: str, seed: int, construct_args: Sequence[str]) -> None:
     import random
     import runpy
 
-    np: Any = importlib.import_module("numpy")
+    np: ModuleType = importlib.import_module("numpy")
     p: Any = importlib.import_module("pybullet")
 
     real_connect = p.connect
     real_camera_image = p.getCameraImage
     camera: dict[str, Any] = {}
 
-    def connect(method: int, *args: Any, **kwargs: Any) -> int:
+    def connect(method: int, *args: object, **kwargs: object) -> int:
         if method == p.GUI:
             return int(real_connect(p.DIRECT))
         return int(real_connect(method, *args, **kwargs))
 
     def reset_debug_visualizer_camera(cameraDistance: float, cameraYaw: float,
                                       cameraPitch: float, cameraTargetPosition: Sequence[float],
-                                      **_: Any) -> None:
+                                      **_: object) -> None:
         camera.update(distance=cameraDistance, yaw=cameraYaw, pitch=cameraPitch,
                       target=list(cameraTargetPosition))
 
-    def get_camera_image(width: int, height: int, viewMatrix: Any = None,
-                         projectionMatrix: Any = None, **kwargs: Any) -> Any:
+    def get_camera_image(width: int, height: int, viewMatrix: Sequence[float] | None = None,
+                         projectionMatrix: Sequence[float] | None = None,
+                         **kwargs: object) -> Any:
         w, h = int(width), int(height)
         if viewMatrix is None and projectionMatrix is None:
             if not camera:

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from nsrmp_bench.engine import Engine, TaskReport, in_task_order, open_engine
 from nsrmp_bench.episode import Episode
@@ -69,7 +70,7 @@ def _safe_name(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", text)
 
 
-def _write_png(path: Path, left: Any, right: Any) -> None:
+def _write_png(path: Path, left: NDArray[np.uint8], right: NDArray[np.uint8]) -> None:
     from nsrmp_bench._optional import require
 
     cv2 = require("cv2")

@@ -17,7 +17,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Final
+from types import ModuleType
+from typing import Final
 
 import numpy as np
 from numpy.typing import NDArray
@@ -106,7 +107,7 @@ class IKResult:
 class PandaKinematics:
     """The arm's chain from the world to the grasp target, for numpy FK and IK."""
 
-    def __init__(self, pb: Any, client: int, body: int, arm: Sequence[int], ee: int) -> None:
+    def __init__(self, pb: ModuleType, client: int, body: int, arm: Sequence[int], ee: int) -> None:
         c = client
         base_pos, base_orn = pb.getBasePositionAndOrientation(body, physicsClientId=c)
         base_inertia = pb.getDynamicsInfo(body, -1, physicsClientId=c)
@@ -130,7 +131,7 @@ class PandaKinematics:
         )
         raise RuntimeError(msg)
 
-    def _chain(self, pb: Any, c: int, body: int, ee: int, conjugate: bool) -> list[F64]:
+    def _chain(self, pb: ModuleType, c: int, body: int, ee: int, conjugate: bool) -> list[F64]:
         """Fixed transforms before, between and after the arm's joint rotations."""
         links: list[int] = []
         j = ee
@@ -177,7 +178,7 @@ class PandaKinematics:
             t = t @ rz @ self._fixed[k + 1]
         return t[:3, 3].copy(), t[:3, :3].copy(), origins, axes
 
-    def check(self, pb: Any, client: int, body: int, ee: int) -> float:
+    def check(self, pb: ModuleType, client: int, body: int, ee: int) -> float:
         """Largest FK error (m) against PyBullet at the body's current joint positions."""
         states = pb.getJointStates(body, list(self.arm), physicsClientId=client)
         p, _, _, _ = self.fk([s[0] for s in states])

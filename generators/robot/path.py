@@ -8,7 +8,8 @@ step, with a filled dot where the hand closed (grasp) and a ring where it opened
 
 from __future__ import annotations
 
-from typing import Any, Final
+from types import ModuleType
+from typing import Final
 
 import numpy as np
 from numpy.typing import NDArray
@@ -70,7 +71,7 @@ def draw_ee_path(rgb: NDArray[np.uint8], camera: Camera, trajectory: Trajectory,
                  step: int | None = None, scale: int = 1,
                  thickness: int = 1) -> NDArray[np.uint8]:
     """A copy of ``rgb`` (an image of ``camera``, enlarged ``scale`` times) with the path."""
-    cv2: Any = require("cv2")
+    cv2: ModuleType = require("cv2")
     out = np.ascontiguousarray(rgb.copy())
     if len(trajectory.time) == 0:
         return out

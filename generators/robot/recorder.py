@@ -9,7 +9,7 @@ are joined with :func:`concatenate_trajectories`.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from types import ModuleType
 
 import numpy as np
 
@@ -23,7 +23,7 @@ class TrajectoryRecorder:
 
     def __init__(
         self,
-        pb: Any,
+        pb: ModuleType,
         client: int,
         body: int,
         joints: Sequence[int],

@@ -24,6 +24,7 @@ import tempfile
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
+from types import ModuleType
 from typing import Any, Final
 
 import numpy as np
@@ -263,7 +264,7 @@ class ShapeIds:
     visual: int
 
 
-def create_shape_ids(pb: Any, client: int, shape: str, *, visual: bool = True) -> ShapeIds:
+def create_shape_ids(pb: ModuleType, client: int, shape: str, *, visual: bool = True) -> ShapeIds:
     """Create the collision and visual shapes of ``shape`` (colour is set per body);
     ``visual=False``: the collision shape only (``visual`` -1), for bodies made without a
     visual shape (the physics-only client's)."""

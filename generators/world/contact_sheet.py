@@ -10,7 +10,8 @@ legend of the object indices. Drawing uses OpenCV; the result is an RGB uint8 ar
 from __future__ import annotations
 
 import textwrap
-from typing import Any, Final
+from types import ModuleType
+from typing import Final
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,7 +40,7 @@ def step_caption(episode: Episode, k: int) -> str:
             f"{g.reference} {objects[g.reference].label})")
 
 
-def _text_block(cv2: Any, lines: list[str], width: int, scale: float,
+def _text_block(cv2: ModuleType, lines: list[str], width: int, scale: float,
                 thickness: int = 1) -> NDArray[np.uint8]:
     (_, th), base = cv2.getTextSize("Ag", cv2.FONT_HERSHEY_SIMPLEX, scale, thickness)
     line_h = th + base + 6
@@ -50,13 +51,13 @@ def _text_block(cv2: Any, lines: list[str], width: int, scale: float,
     return img
 
 
-def _wrap(cv2: Any, text: str, width: int, scale: float) -> list[str]:
+def _wrap(cv2: ModuleType, text: str, width: int, scale: float) -> list[str]:
     (cw, _), _ = cv2.getTextSize("m", cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
     chars = max(10, int((width - 16) / max(cw * 0.85, 1)))
     return textwrap.wrap(text, chars) or [""]
 
 
-def _panel(cv2: Any, episode: Episode, k: int, scale: int) -> NDArray[np.uint8]:
+def _panel(cv2: ModuleType, episode: Episode, k: int, scale: int) -> NDArray[np.uint8]:
     assert episode.rendering is not None and episode.rendering.observations is not None
     obs = episode.rendering.observations
     tg = episode.rendering.targets

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from types import ModuleType
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,7 +39,7 @@ _WHITE = (1.0, 1.0, 1.0, 1.0)
 _TWIN_PARK = (0.0, 0.0, -50.0)
 
 
-def physics_only_client(pb: Any) -> int:
+def physics_only_client(pb: ModuleType) -> int:
     """A DIRECT client without its renderer (TinyRenderer unloaded): bodies, resets and
     URDF loads build no render meshes. It cannot render (``getCameraImage`` returns an
     empty picture, ``getVisualShapeData`` raises); physics is untouched."""
@@ -68,7 +68,7 @@ def object_look(obj: SceneObject) -> tuple[str | None, tuple[float, float, float
 class ObjectTwin:
     """A render-only client with a pool of object bodies per shape (see the module doc)."""
 
-    def __init__(self, pb: Any, texture_files: dict[str, Path]) -> None:
+    def __init__(self, pb: ModuleType, texture_files: dict[str, Path]) -> None:
         self.pb = pb
         self.client = int(pb.connect(pb.DIRECT))
         if self.client < 0:

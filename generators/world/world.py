@@ -40,6 +40,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
+from types import ModuleType
 from typing import Any, Final
 
 import numpy as np
@@ -222,8 +223,8 @@ class World:
         lean_reset: bool = True,
         object_twin: bool = True,
     ) -> None:
-        self.pb: Any = require("pybullet")
-        self._cv2: Any = require("cv2")
+        self.pb: ModuleType = require("pybullet")
+        self._cv2: ModuleType = require("cv2")
         pybullet_data = require("pybullet_data")
         self.camera = OFFICIAL_CAMERA if camera is None else camera
         self.config = WorldConfig() if config is None else config

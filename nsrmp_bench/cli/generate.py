@@ -23,9 +23,11 @@ manifest holds a commitment to it (``docs/challenge.md``).
 from __future__ import annotations
 
 import argparse
+import os
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Protocol
 
 from rich.console import Console
 
@@ -38,6 +40,24 @@ from nsrmp_bench.private_parts import read_secret
 from nsrmp_bench.split_specs import load_split_file, resolve_split
 from nsrmp_bench.storage.atomic import output_dir
 from nsrmp_bench.verify import compare_with_committed
+
+if TYPE_CHECKING:
+    from nsrmp_bench.engine import Engine
+    from nsrmp_bench.generators.sampler import AttemptLog
+    from nsrmp_bench.split_specs import SplitSpec
+    from nsrmp_bench.storage.manifest import Manifest
+
+
+class _PartGenerator(Protocol):
+    """What the command calls of ``nsrmp_bench.generators.generate`` (imported only once
+    pybullet is known to be there)."""
+
+    def generate_part(
+        self, spec: SplitSpec, part: str, out_dir: str | os.PathLike[str], *,
+        engine: Engine | None = ..., shard_size: int = ..., limit: int | None = ...,
+        on_progress: Callable[[int], None] | None = ...,
+        on_start: Callable[[int, int], None] | None = ..., secret: str | None = ...,
+    ) -> tuple[Manifest, AttemptLog]: ...
 
 __all__ = ["add_arguments", "run"]
 
@@ -83,8 +103,8 @@ def run(args: argparse.Namespace) -> int:
                     for part in parts), default=0)
 
 
-def _generate(gen: Any, spec: Any, part: str, engine: Any, args: argparse.Namespace,
-              console: Console, secret: str | None) -> int:
+def _generate(gen: _PartGenerator, spec: SplitSpec, part: str, engine: Engine,
+              args: argparse.Namespace, console: Console, secret: str | None) -> int:
     """One part: generate, print the summary, compare with the committed manifest."""
     out = args.out / part
     t0 = time.perf_counter()
@@ -135,7 +155,7 @@ def _generate(gen: Any, spec: Any, part: str, engine: Any, args: argparse.Namesp
     return 0
 
 
-def _reasons(stats: Any) -> str:
+def _reasons(stats: AttemptLog) -> str:
     if not stats.reasons:
         return ""
     parts = ", ".join(f"{k} {v}" for k, v in stats.reasons.most_common())

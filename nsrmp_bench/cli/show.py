@@ -10,10 +10,14 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from nsrmp_bench._optional import require
 from nsrmp_bench.errors import InvalidArgument
+
+if TYPE_CHECKING:
+    from nsrmp_bench.episode import Episode
+    from nsrmp_bench.storage.reader import EpisodeCollection
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -28,7 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--columns", type=int, default=3, help="panels per row (default 3)")
 
 
-def _pick(collection: Any, episode: str | None) -> Any:
+def _pick(collection: EpisodeCollection, episode: str | None) -> Episode:
     if episode is None:
         if len(collection) == 0:
             msg = "PATH holds no episodes; pass a shard or data directory with episodes"

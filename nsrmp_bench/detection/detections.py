@@ -104,7 +104,7 @@ def write_detections(path: str | Path, split: str, detector: str,
     return out
 
 
-def _line_problems(n: int, rec: Any) -> Iterator[str]:
+def _line_problems(n: int, rec: object) -> Iterator[str]:
     where = f"line {n}"
     if not isinstance(rec, dict):
         yield f"{where}: expected a JSON object, got {type(rec).__name__}"

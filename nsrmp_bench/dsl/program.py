@@ -8,6 +8,7 @@ a ``move`` (or ``idle``); following ``move`` inputs back gives the steps in orde
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
@@ -159,7 +160,7 @@ class Program:
         return [n.to_dict() for n in self.nodes]
 
     @classmethod
-    def from_list(cls, data: Any) -> Program:
+    def from_list(cls, data: object) -> Program:
         """Inverse of :meth:`to_list`; type-checks."""
         if not isinstance(data, list):
             msg = f"a program must be a list of nodes, got {type(data).__name__}"
@@ -180,7 +181,7 @@ class GroundedStep:
         return [self.action, self.subject, self.reference]
 
     @classmethod
-    def from_list(cls, data: Any) -> GroundedStep:
+    def from_list(cls, data: Iterable[str | int]) -> GroundedStep:
         """Inverse of :meth:`to_list`."""
         try:
             action, subject, reference = data

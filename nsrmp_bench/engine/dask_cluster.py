@@ -37,8 +37,8 @@ import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import CancelledError
 from pathlib import Path
-from types import TracebackType
-from typing import Any
+from types import ModuleType, TracebackType
+from typing import TYPE_CHECKING, Any
 
 from nsrmp_bench._optional import require
 from nsrmp_bench._version import __version__
@@ -46,6 +46,9 @@ from nsrmp_bench.engine.base import Engine, run_task
 from nsrmp_bench.engine.progress import ProgressTally, TaskReport
 from nsrmp_bench.engine.signals import signals_held
 from nsrmp_bench.errors import EngineError, InvalidArgument
+
+if TYPE_CHECKING:
+    from distributed import Future
 
 __all__ = ["DaskEngine", "software"]
 _POLL_S = 0.2
@@ -113,18 +116,18 @@ class DaskEngine(Engine):
         if scheduler is None and workers < 1:
             msg = f"workers must be >= 1 for a LocalCluster, got {workers}"
             raise InvalidArgument(msg)
-        self._dd: Any = require("distributed")  # untyped calls: keep them Any
+        self._dd: ModuleType = require("distributed")  # untyped calls: keep them Any
         self.scheduler = scheduler
         self.workers = workers
-        self._dask: Any = require("dask")
+        self._dask: ModuleType = require("dask")
         if connect_timeout_s is None:  # Dask's own knob (DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT)
             connect_timeout_s = float(self._dask.utils.parse_timedelta(
                 self._dask.config.get("distributed.comm.timeouts.connect"), default="seconds"))
         self.connect_timeout_s = connect_timeout_s
         self.lost_grace_s = lost_grace_s
         self.workers_timeout_s = workers_timeout_s
-        self._cluster: Any = None
-        self._client: Any = None
+        self._cluster: Any = None  # LocalCluster: its close() is untyped
+        self._client: Any = None  # Client: its close() is untyped
         self._address = scheduler or "a LocalCluster"
         self._stopping = False  # interrupted: the LocalCluster is stopped without its logs
 
@@ -326,7 +329,7 @@ class DaskEngine(Engine):
                 client.cancel(list(pending))
                 client.unsubscribe_topic(topic)
 
-    def _result(self, fut: Any, args: tuple[Any, ...], done: int, total: int) -> Any:
+    def _result(self, fut: Future[Any], args: tuple[Any, ...], done: int, total: int) -> Any:
         try:
             return fut.result()
         except self._dd.KilledWorker as exc:

@@ -24,14 +24,14 @@ _POLL_S = 0.2
 
 
 class _QueueSink:
-    def __init__(self, q: Any) -> None:
+    def __init__(self, q: queue_module.Queue[tuple[int, int]]) -> None:
         self.q = q
 
     def send(self, key: int, count: int) -> None:
         self.q.put((key, count))
 
 
-def _drain(q: Any, tally: ProgressTally) -> None:
+def _drain(q: queue_module.Queue[tuple[int, int]], tally: ProgressTally) -> None:
     while True:
         try:
             key, count = q.get_nowait()

@@ -204,7 +204,7 @@ def _load(name: str) -> Policy:
         msg = (f"policy {name!r}: module {module_name!r} cannot be imported ({exc}); put it "
                "in the current directory or on PYTHONPATH, or install it")
         raise InvalidArgument(msg) from exc
-    obj: Any = module
+    obj: object = module
     for part in attr.split("."):
         if not hasattr(obj, part):
             msg = f"policy {name!r}: {module_name!r} has no attribute {attr!r}"

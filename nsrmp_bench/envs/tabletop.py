@@ -55,9 +55,9 @@ final-box IoU >= 0.5 with gold), ``iou_m`` (mean IoU of those objects now), ``bo
 from __future__ import annotations
 
 import string
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final
 
 import gymnasium as gym
 import numpy as np
@@ -87,6 +87,9 @@ from nsrmp_bench.scoring.metrics import SUCCESS_IOU
 from nsrmp_bench.scoring.submission import Prediction
 from nsrmp_bench.vocabulary import ACTIONS, MAX_OBJECTS, TABLE_TOP_Z
 
+if TYPE_CHECKING:
+    from nsrmp_bench.storage.reader import EpisodeCollection
+
 __all__ = ["BOXES", "EXECUTORS", "INSTRUCTION_CHARSET", "TabletopEnv"]
 
 EXECUTORS: Final = ("teleport", "robot")
@@ -109,7 +112,7 @@ class _Source:
     """Where the instances come from: a part on disk or a split spec."""
 
     def __init__(self, data: str | Path | None, split: str | None, part: str) -> None:
-        self.collection: Any = None
+        self.collection: EpisodeCollection | None = None
         self.spec: Any = None
         self.part = part
         if data is not None:
@@ -409,8 +412,8 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
             raise InvalidAction(msg)
         return False, *self._decode_pick_place(action["pick"], action["place"])
 
-    def _decode_step(self, raw: Any) -> tuple[tuple[int, Pose, dict[str, Any]] | None,
-                                              str | None]:
+    def _decode_step(self, raw: GroundedStep | Iterable[int | str]
+                     ) -> tuple[tuple[int, Pose, dict[str, Any]] | None, str | None]:
         assert self.episode is not None
         objects = self.episode.symbolic.scene.objects
         n = len(objects)
@@ -442,7 +445,8 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
                                                         self.episode.symbolic.scene.workspace)}
         return (subject, target, record), None
 
-    def _decode_pick_place(self, pick: Any, place: Any
+    def _decode_pick_place(self, pick: Sequence[float] | NDArray[np.float64],
+                           place: Sequence[float] | NDArray[np.float64]
                            ) -> tuple[tuple[int, Pose, dict[str, Any]] | None, str | None]:
         assert self.episode is not None
         p0 = check_point(self.camera, pick, "pick")

@@ -19,13 +19,17 @@ import json
 from collections.abc import Sequence
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 
 from nsrmp_bench.canonical import sha256_file
 from nsrmp_bench.episode_views import episode_boxes
 from nsrmp_bench.errors import InvalidArgument
+
+if TYPE_CHECKING:
+    from nsrmp_bench.storage.manifest import Manifest
+    from nsrmp_bench.storage.reader import EpisodeCollection
 
 __all__ = ["CROISSANT_CONTEXT", "CROISSANT_NAME", "write_croissant"]
 
@@ -206,7 +210,7 @@ def _file_object(split_dir: Path, path: Path, fmt: str) -> dict[str, Any]:
     }
 
 
-def _manifest(collection: Any) -> Any:
+def _manifest(collection: EpisodeCollection) -> Manifest:
     """The part's manifest (a part directory always has one)."""
     if collection.manifest is None:
         msg = f"{collection.root} is a single shard; give its part directory (with manifest.json)"

@@ -19,7 +19,7 @@ import json
 import os
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -28,6 +28,12 @@ from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.export.episodes import PartData, split_parts
 from nsrmp_bench.export.staging import staged_folder
+
+if TYPE_CHECKING:
+    import datasets
+
+    from nsrmp_bench.storage.manifest import Manifest
+    from nsrmp_bench.storage.reader import EpisodeCollection
 
 __all__ = ["export_hf", "hf_features", "hf_split_name"]
 
@@ -107,7 +113,7 @@ def episode_row(episode: Episode, split: str) -> dict[str, Any]:
     }
 
 
-def _card(split: str, parts: list[PartData], features: Any) -> str:
+def _card(split: str, parts: list[PartData], features: datasets.Features) -> str:
     lines = [
         "---",
         "license: mit",
@@ -190,7 +196,7 @@ def export_hf(data: str | os.PathLike[str], out: str | os.PathLike[str], *,
     return written
 
 
-def _manifest(collection: Any) -> Any:
+def _manifest(collection: EpisodeCollection) -> Manifest:
     """The part's manifest (a part directory always has one)."""
     if collection.manifest is None:
         msg = f"{collection.root} is a single shard; give its part directory (with manifest.json)"

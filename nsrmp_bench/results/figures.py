@@ -36,7 +36,7 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from nsrmp_bench._optional import require
 from nsrmp_bench.errors import InvalidArgument
@@ -44,6 +44,11 @@ from nsrmp_bench.results.colours import Style, model_styles, reference_style
 from nsrmp_bench.results.label_place import movable, place_labels
 from nsrmp_bench.results.protocols import PROTOCOLS, is_reference, protocol_of
 from nsrmp_bench.results.summary import Estimate, Results
+
+if TYPE_CHECKING:
+    from matplotlib.artist import Artist
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 __all__ = [
     "CATEGORY_BARS",
@@ -228,7 +233,7 @@ def _figure(width: float, height: float) -> Any:
     return figure_mod.Figure(figsize=(width, height), dpi=100, layout="constrained")
 
 
-def _save(fig: Any, out: Path, name: str) -> list[Path]:
+def _save(fig: Figure, out: Path, name: str) -> list[Path]:
     paths = [out / f"{name}.png", out / f"{name}.svg"]
     fig.savefig(paths[0], dpi=120, metadata={"Software": None})
     fig.savefig(paths[1], metadata={"Date": None, "Creator": None})
@@ -250,14 +255,14 @@ def _value_range(estimates: Sequence[Estimate], *, from_zero: bool,
     return bottom, max(top, bottom + 0.1)
 
 
-def _legend(fig: Any, handles: list[Any], labels: list[str], width: float) -> None:
+def _legend(fig: Figure, handles: list[Artist], labels: list[str], width: float) -> None:
     longest = max(len(label) for label in labels)
     columns = max(1, min(len(labels), int(width * 72 / (longest * 5.2 + 34))))
     fig.legend(handles, labels, loc="outside lower center", ncol=columns, fontsize=8,
                frameon=False, columnspacing=1.2, handlelength=2.2)
 
 
-def _off_scale(ax: Any, model: str, value: float, low: float, high: float,
+def _off_scale(ax: Axes, model: str, value: float, low: float, high: float,
                slot: int) -> None:
     above = value > high
     movable(ax.text(0.99, 0.91 - 0.07 * slot if above else 0.02 + 0.07 * slot,

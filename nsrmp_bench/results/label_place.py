@@ -11,11 +11,20 @@ order).
 from __future__ import annotations
 
 import itertools
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nsrmp_bench._optional import require
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.backend_bases import RendererBase
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+    from matplotlib.text import Text
+    from matplotlib.transforms import Bbox
+    from numpy.typing import NDArray
 
 __all__ = ["GID", "label_overlaps", "movable", "place_labels"]
 
@@ -26,15 +35,15 @@ PAD_PX = 2.0
 """Clear space kept around a label, in pixels of the figure's own dpi."""
 
 
-def movable(text: Any, own: Any = None) -> Any:
+def movable(text: Text, own: Line2D | None = None) -> Text:
     """Mark ``text`` (a matplotlib ``Text`` in axes coordinates) as free to move; ``own``
     is the line it labels, the one line it may sit on."""
     text.set_gid(GID)
-    text.nsrmp_own_line = own
+    text.nsrmp_own_line = own  # type: ignore[attr-defined]  # a mark of ours
     return text
 
 
-def _line_points(ax: Any, skip: Any = None) -> Any:
+def _line_points(ax: Axes, skip: Line2D | None = None) -> NDArray[np.float64]:
     """Display-space points along every data line of ``ax`` (segments sampled every
     pixel), each with the clearance it needs (half the line width, or the marker's radius
     at a vertex). Returns an (n, 3) array: x, y, clearance."""
@@ -64,12 +73,12 @@ def _line_points(ax: Any, skip: Any = None) -> Any:
     return np.concatenate(out)
 
 
-def _boxes(ax: Any, renderer: Any) -> list[Any]:
+def _boxes(ax: Axes, renderer: RendererBase) -> list[Bbox]:
     """Bars (and any other patch of the axes) as display-space boxes."""
     return [p.get_window_extent(renderer) for p in ax.patches if p.get_visible()]
 
 
-def _hits(box: Any, points: Any, obstacles: list[Any]) -> bool:
+def _hits(box: Bbox, points: NDArray[np.float64], obstacles: list[Bbox]) -> bool:
     x0, y0, x1, y1 = box.x0 - PAD_PX, box.y0 - PAD_PX, box.x1 + PAD_PX, box.y1 + PAD_PX
     if len(points):
         c = points[:, 2]
@@ -80,10 +89,10 @@ def _hits(box: Any, points: Any, obstacles: list[Any]) -> bool:
     return any(o.x0 < x1 and o.x1 > x0 and o.y0 < y1 and o.y1 > y0 for o in obstacles)
 
 
-def label_overlaps(fig: Any) -> list[str]:
+def label_overlaps(fig: Figure) -> list[str]:
     """The texts of ``fig``'s axes that overprint a data line, a marker, a bar or another
     text: empty when every label is clear (the figure must have been drawn)."""
-    renderer = fig.canvas.get_renderer()
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]  # an Agg canvas
     found = []
     for ax in fig.axes:
         bars = _boxes(ax, renderer)
@@ -97,7 +106,7 @@ def label_overlaps(fig: Any) -> list[str]:
     return found
 
 
-def place_labels(fig: Any) -> None:
+def place_labels(fig: Figure) -> None:
     """Lay ``fig`` out, freeze the layout, and move every :func:`movable` text of its axes
     vertically to the nearest place where it overprints nothing."""
     agg = require("matplotlib.backends.backend_agg")
@@ -105,7 +114,7 @@ def place_labels(fig: Any) -> None:
         agg.FigureCanvasAgg(fig)
     fig.canvas.draw()
     fig.set_layout_engine("none")
-    renderer = fig.canvas.get_renderer()
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]  # an Agg canvas
     for ax in fig.axes:
         texts = [t for t in ax.texts if t.get_gid() == GID and t.get_text()]
         if not texts:
@@ -129,7 +138,8 @@ def place_labels(fig: Any) -> None:
             placed.append(box.translated(dx, dy))
 
 
-def _clear_shift(box: Any, frame: Any, points: Any, placed: list[Any]) -> tuple[float, float]:
+def _clear_shift(box: Bbox, frame: Bbox, points: NDArray[np.float64], placed: list[Bbox]
+                 ) -> tuple[float, float]:
     """The smallest shift (first up or down, then also leftwards, in steps of a tenth of
     the axes) that leaves ``box`` inside ``frame`` and clear of everything; (0, 0) when no
     place is clear."""

@@ -130,7 +130,7 @@ def _nav(splits: Sequence[str], depth: int = 0) -> str:
     return "<nav>" + " ".join(links + tests) + "</nav>"
 
 
-def _metric_cell(triple: Any) -> str:
+def _metric_cell(triple: object) -> str:
     value, low, high = (triple if isinstance(triple, list | tuple) else (None, None, None))
     if value is None:
         return '<td data-value="">–</td>'

@@ -18,7 +18,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from nsrmp_bench.canonical import canonical_json
 from nsrmp_bench.errors import InvalidArgument
@@ -26,6 +26,9 @@ from nsrmp_bench.results.robustness_table import Suite, suite_from_dict
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.layout import check_schema_version
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = [
     "FORMAT",
@@ -103,7 +106,7 @@ class Run:
                    "split=... so the run can be placed on a board")
             raise InvalidArgument(msg)
 
-        def est(row: Any) -> Estimate:
+        def est(row: pd.Series) -> Estimate:
             return Estimate.from_json({k: (None if _nan(row[k]) else row[k])
                                        for k in ("value", "ci_low", "ci_high", "n")})
 
@@ -160,7 +163,7 @@ class Run:
         )
 
 
-def _nan(v: Any) -> bool:
+def _nan(v: object) -> bool:
     return isinstance(v, float) and not math.isfinite(v)
 
 

@@ -100,7 +100,7 @@ def generator_words() -> frozenset[str]:
     base = resources.files("nsrmp_bench.generators").joinpath("templates")
     words: set[str] = set()
 
-    def walk(value: Any) -> None:
+    def walk(value: object) -> None:
         if isinstance(value, str):
             words.update(w.lower() for w in _WORD.findall(value))
         elif isinstance(value, dict):

@@ -23,7 +23,7 @@ import json
 from collections.abc import Sequence
 from itertools import chain, repeat
 from operator import attrgetter, is_not
-from typing import Any
+from typing import TYPE_CHECKING
 
 import msgspec
 import numpy as np
@@ -33,6 +33,9 @@ from nsrmp_bench.scoring.ragged import offsets_from_lengths
 from nsrmp_bench.scoring.submission import PARQUET_COLUMNS, Submission, SubmissionHeader
 from nsrmp_bench.scoring.validate import SubmissionParser
 from nsrmp_bench.vocabulary import ACTIONS
+
+if TYPE_CHECKING:
+    import pyarrow
 
 __all__ = ["numbers_arrow", "numbers_numpy", "read_jsonl_bulk", "read_parquet_bulk"]
 
@@ -321,7 +324,8 @@ def numbers_numpy(text: bytes) -> F64:
     return values
 
 
-def read_parquet_bulk(source: str, table: Any, header: SubmissionHeader) -> Submission | None:
+def read_parquet_bulk(source: str, table: pyarrow.Table,
+                      header: SubmissionHeader) -> Submission | None:
     """The parsed submission of a valid predictions table, or None (read it row by row)."""
     try:
         return _read_parquet(source, table, header)
@@ -329,7 +333,7 @@ def read_parquet_bulk(source: str, table: Any, header: SubmissionHeader) -> Subm
         return None
 
 
-def _read_parquet(source: str, table: Any, header: SubmissionHeader) -> Submission:
+def _read_parquet(source: str, table: pyarrow.Table, header: SubmissionHeader) -> Submission:
     import pyarrow as pa
     import pyarrow.compute as pc
 

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -148,7 +147,7 @@ def _part_root_hash(split: str, data: Data | None) -> str | None:
 
 def _check_protocol(sub: Submission, data: Data | None) -> str:
     """Check the header's ``protocol``; returns the line the summary prints."""
-    raw: Any = sub.header.extra.get("protocol")
+    raw: object = sub.header.extra.get("protocol")
     if raw is None:
         return ("warning: the header states no \"protocol\" (supervision, boxes, training "
                 "parts, seeds, scorer, manifest root hash); the leaderboard requires it: "

@@ -12,7 +12,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, SupportsFloat
 
 import numpy as np
 import pandas as pd
@@ -37,6 +37,9 @@ from nsrmp_bench.scoring.scorer import (
 from nsrmp_bench.scoring.version import SCORER_ID
 from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.split_root import part_of_split
+
+if TYPE_CHECKING:
+    import rich.console
 
 __all__ = ["DEFAULT_N_PERM", "Comparison", "compare"]
 
@@ -82,7 +85,7 @@ class Comparison:
         return atomic_write_text(
             path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
 
-    def render(self, console: Any = None) -> None:
+    def render(self, console: rich.console.Console | None = None) -> None:
         """Print the differences as a rich table."""
         from rich.console import Console
         from rich.table import Table
@@ -98,7 +101,7 @@ class Comparison:
                              ("p (sign flip)", "right"), ("n", "right")):
             t.add_column(col, justify=justify)  # type: ignore[arg-type]
 
-        def fmt(v: Any, spec: str = ".3f") -> str:
+        def fmt(v: SupportsFloat | None, spec: str = ".3f") -> str:
             return "—" if v is None or not math.isfinite(float(v)) else format(float(v), spec)
 
         for _, row in self.table.iterrows():

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, DTypeLike, NDArray
 
 from nsrmp_bench.episode import Episode, SymbolicEpisode
 from nsrmp_bench.episode_views import episode_boxes, episode_camera, episode_positions
@@ -46,7 +46,7 @@ CATEGORY_COLUMNS: tuple[str, ...] = (
 """The categories every breakdown uses (``SymbolicEpisode.categories()``)."""
 
 
-def _as(a: Any, dtype: Any, shape_tail: tuple[int, ...], what: str) -> Any:
+def _as(a: ArrayLike, dtype: DTypeLike, shape_tail: tuple[int, ...], what: str) -> Any:
     arr = np.asarray(a, dtype=dtype)
     if arr.ndim != 1 + len(shape_tail) or arr.shape[1:] != shape_tail:
         msg = f"gold {what} must have shape (n, {', '.join(map(str, shape_tail))}), got {arr.shape}"
@@ -314,7 +314,7 @@ class GoldTable:
         )
 
 
-def _split_of(collection: Any) -> str | None:
+def _split_of(collection: object) -> str | None:
     value = getattr(collection, "split", None)
     return value if isinstance(value, str) and value else None
 

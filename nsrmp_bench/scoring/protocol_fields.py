@@ -45,25 +45,25 @@ _EXAMPLE = ('{"supervision": "initial and final boxes", "boxes": "gold", "traini
             '"manifest_root_hash": "<the root hash in the part\'s manifest.json>"}')
 
 
-def _text(v: Any) -> bool:
+def _text(v: object) -> bool:
     return isinstance(v, str) and bool(v.strip())
 
 
-def _boxes(v: Any) -> bool:
+def _boxes(v: object) -> bool:
     return isinstance(v, str) and (v == GOLD_BOXES
                                    or (v.startswith(_DETECTED) and len(v) > len(_DETECTED)))
 
 
-def _parts(v: Any) -> bool:
+def _parts(v: object) -> bool:
     return isinstance(v, list) and all(isinstance(p, str) and _PART_RE.match(p) for p in v)
 
 
-def _seeds(v: Any) -> bool:
+def _seeds(v: object) -> bool:
     return isinstance(v, list) and all(
         isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in v)
 
 
-def _hash(v: Any) -> bool:
+def _hash(v: object) -> bool:
     return isinstance(v, str) and bool(_HASH_RE.match(v))
 
 
@@ -104,7 +104,7 @@ class ProtocolFields:
                 "scorer": self.scorer, "manifest_root_hash": self.manifest_root_hash}
 
     @classmethod
-    def from_dict(cls, data: Any, where: str) -> ProtocolFields:
+    def from_dict(cls, data: object, where: str) -> ProtocolFields:
         """Parse and check ``"protocol"``; a bad field is named with the expected form."""
         if not isinstance(data, Mapping):
             msg = f"{where}: 'protocol' is {data!r:.60}; expected an object like {_EXAMPLE}"

@@ -11,7 +11,6 @@ import gc
 import io
 import json
 from pathlib import Path
-from typing import Any
 
 from nsrmp_bench.errors import MissingExtra, SubmissionError
 from nsrmp_bench.scoring.bulk import read_jsonl_bulk, read_parquet_bulk
@@ -80,7 +79,7 @@ def _read_jsonl(path: Path, data: bytes) -> SubmissionParser:
             header_done = True
             continue
         try:
-            obj: Any = json.loads(text)
+            obj: object = json.loads(text)
         except json.JSONDecodeError as exc:
             parser.problem(
                 lineno,

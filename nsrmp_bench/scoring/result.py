@@ -10,13 +10,16 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import pandas as pd
 
 from nsrmp_bench.errors import InvalidArgument, UnknownId
 from nsrmp_bench.plurals import counted
 from nsrmp_bench.storage.atomic import atomic_write_text
+
+if TYPE_CHECKING:
+    import rich.console
 
 __all__ = ["BREAKDOWNS", "BREAKDOWN_SHOWN", "SHORT_BREAKDOWN", "ScoreResult", "json_ready"]
 
@@ -31,7 +34,7 @@ BREAKDOWNS = ("short", "all", "none")
 :data:`SHORT_BREAKDOWN`, every category (templates too), or none."""
 
 
-def json_ready(value: Any) -> Any:
+def json_ready(value: object) -> Any:
     """``value`` with NaN and infinities as None and numpy scalars as Python ones."""
     if isinstance(value, dict):
         return {str(k): json_ready(v) for k, v in value.items()}
@@ -166,7 +169,8 @@ class ScoreResult:
         return atomic_write_text(path, json.dumps(
             self.to_dict(per_instance=per_instance), indent=2, allow_nan=False) + "\n")
 
-    def render(self, console: Any = None, *, breakdown: str = "short") -> None:
+    def render(self, console: rich.console.Console | None = None, *,
+               breakdown: str = "short") -> None:
         """Print the figures as rich tables: the headline table, IoU-M after each step, and
         the breakdown by the categories ``breakdown`` names (one of :data:`BREAKDOWNS`)."""
         from rich.console import Console

@@ -26,10 +26,11 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.errors import InvalidArgument
@@ -93,7 +94,7 @@ class SubmissionHeader:
         return out
 
 
-def _round_list(values: Any, decimals: int, where: str) -> Any:
+def _round_list(values: ArrayLike, decimals: int, where: str) -> Any:
     try:
         arr = np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -220,7 +221,7 @@ PARQUET_COLUMNS = ("id", "boxes", "program", "step_boxes", "pick", "place", "pos
 """The columns of a Parquet predictions file (one row per instance)."""
 
 
-def _parquet_table(pa: Any, header: SubmissionHeader, records: list[dict[str, Any]]) -> Any:
+def _parquet_table(pa: ModuleType, header: SubmissionHeader, records: list[dict[str, Any]]) -> Any:
     """An Arrow table of the records; a program is a list of (action, subject, reference)."""
     rows = []
     for r in records:

@@ -57,12 +57,12 @@ _FIX = (
 )
 
 
-def _show(value: Any, limit: int = 60) -> str:
+def _show(value: object, limit: int = 60) -> str:
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def _json_type(value: Any) -> str:
+def _json_type(value: object) -> str:
     if value is None:
         return "null"
     if isinstance(value, bool):
@@ -78,7 +78,7 @@ def _json_type(value: Any) -> str:
     return type(value).__name__
 
 
-def _number_problem(value: Any) -> str | None:
+def _number_problem(value: object) -> str | None:
     """Why ``value`` is not an acceptable number, or None."""
     if isinstance(value, bool):
         return f"is {str(value).lower()}, a boolean, not a number"
@@ -174,7 +174,7 @@ class SubmissionParser:
         self.problems.add("" if lineno is None else self.where(lineno), text)
 
     # -- the header -----------------------------------------------------------------------
-    def parse_header(self, lineno: int | None, obj: Any) -> None:
+    def parse_header(self, lineno: int | None, obj: object) -> None:
         """Check the header line; a line that is a prediction is also parsed as one."""
         self._header_seen = True
         example = (
@@ -256,7 +256,7 @@ class SubmissionParser:
 
     # -- one prediction -------------------------------------------------------------------
     def _box_list(
-        self, lineno: int, name: str, value: Any, width: int, n: int | None, items: bool = True
+        self, lineno: int, name: str, value: object, width: int, n: int | None, items: bool = True
     ) -> int:
         """Check a list of boxes (width 4) or points (width 3); its length, or -1.
 
@@ -291,7 +291,7 @@ class SubmissionParser:
                 return -1
         return len(value)
 
-    def _numbers(self, lineno: int, name: str, value: Any) -> bool:
+    def _numbers(self, lineno: int, name: str, value: object) -> bool:
         """Scan nested lists for a value that is not a finite number; report the first."""
         stack: list[tuple[str, Any]] = [(name, value)]
         while stack:
@@ -305,7 +305,7 @@ class SubmissionParser:
                 return False
         return True
 
-    def _point(self, lineno: int, name: str, value: Any) -> tuple[float, float] | None:
+    def _point(self, lineno: int, name: str, value: object) -> tuple[float, float] | None:
         if not isinstance(value, list) or len(value) != 2:
             self.problem(
                 lineno,
@@ -320,7 +320,7 @@ class SubmissionParser:
                 return None
         return (float(value[0]), float(value[1]))
 
-    def _program(self, lineno: int, value: Any, n: int) -> list[tuple[int, int, int]] | None:
+    def _program(self, lineno: int, value: object, n: int) -> list[tuple[int, int, int]] | None:
         if not isinstance(value, list):
             self.problem(
                 lineno,
@@ -366,7 +366,7 @@ class SubmissionParser:
             out.append((_ACTION_CODE[action], subject, reference))
         return out  # pragma: no cover - the fast path accepts every valid program
 
-    def parse_record(self, lineno: int, obj: Any, *, deep: bool = False) -> None:
+    def parse_record(self, lineno: int, obj: object, *, deep: bool = False) -> None:
         """Check one prediction; a good one is kept, a bad one recorded as a problem.
 
         ``deep`` scans every number's type in Python (needed where a boolean could hide
@@ -648,8 +648,8 @@ class SubmissionParser:
 
 
 def parse_submission(
-    header: Any,
-    records: Iterable[Any],
+    header: object,
+    records: Iterable[object],
     *,
     source: str,
     first_line: int = 2,

@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import InvalidArgument
@@ -21,7 +21,7 @@ __all__ = ["episode_arrays", "to_stored_dtype"]
 _SPECS: dict[str, ArraySpec] = {s.name: s for s in ARRAY_SPECS}
 
 
-def to_stored_dtype(name: str, value: Any, where: str) -> NDArray[Any]:
+def to_stored_dtype(name: str, value: ArrayLike, where: str) -> NDArray[Any]:
     """``value`` as a C-contiguous little-endian array of the stored dtype of ``name``.
 
     Floats are narrowed to the stored float width; integers must fit the stored integer

@@ -34,8 +34,9 @@ from nsrmp_bench.storage.prefix_deflate import PrefixDeflater
 __all__ = ["write_episode_group"]
 
 
-def _put_image(group: Any, path: str, name: str, arr: NDArray[Any], kw: Mapping[str, Any],
-               compressed: Compressed, deflater: PrefixDeflater | None) -> None:
+def _put_image(group: h5py.h5g.GroupID, path: str, name: str, arr: NDArray[Any],
+               kw: Mapping[str, Any], compressed: Compressed,
+               deflater: PrefixDeflater | None) -> None:
     """An :func:`image_codec` dataset, its chunks compressed here (or taken from
     ``compressed``) and written as they are: the filters HDF5 would apply, so the same
     bytes. ``path`` is the group's path in the episode group."""

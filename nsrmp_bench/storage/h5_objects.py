@@ -37,13 +37,13 @@ STRING = h5py.string_dtype("utf-8")
 
 _CODEC_KEYS = frozenset({"chunks", "compression", "compression_opts", "shuffle"})
 
-_group_plist: Any = None
+_group_plist: h5p.PropGCID | None = None
 _dataset_plists: dict[tuple[Any, ...], Any] = {}
 _types: dict[str, tuple[Any, Any]] = {}
 _spaces: dict[tuple[int, ...], Any] = {}
 
 
-def _group_creation() -> Any:
+def _group_creation() -> h5p.PropGCID:
     global _group_plist
     if _group_plist is None:
         plist = h5p.create(h5p.GROUP_CREATE)
@@ -111,32 +111,33 @@ def _space(shape: tuple[int, ...]) -> Any:
     return space
 
 
-def group(parent: Any, name: str) -> Any:
+def group(parent: h5g.GroupID, name: str) -> h5g.GroupID:
     """A new group ``name`` in ``parent`` (a low-level id) without creation times."""
     return h5g.create(parent, name.encode("utf-8"), gcpl=_group_creation())
 
 
-def empty_dataset(parent: Any, name: str, shape: tuple[int, ...], dtype: np.dtype[Any],
-                  codec: Mapping[str, Any]) -> Any:
+def empty_dataset(parent: h5g.GroupID, name: str, shape: tuple[int, ...], dtype: np.dtype[Any],
+                  codec: Mapping[str, Any]) -> h5d.DatasetID:
     """A new dataset of ``shape`` and ``dtype`` stored with ``codec``, nothing written yet
     (its low-level id, e.g. for ``write_direct_chunk``)."""
     return h5d.create(parent, name.encode("utf-8"), _type(dtype)[0], _space(tuple(shape)),
                       dcpl=_dataset_creation(tuple(shape), codec))
 
 
-def dataset(parent: Any, name: str, arr: NDArray[Any], codec: Mapping[str, Any]) -> None:
+def dataset(parent: h5g.GroupID, name: str, arr: NDArray[Any], codec: Mapping[str, Any]) -> None:
     """A new dataset ``name`` in ``parent`` holding ``arr``, stored with ``codec``."""
     data = np.asarray(arr, order="C")  # not ascontiguousarray: it makes a 0-d array 1-d
     ds = empty_dataset(parent, name, data.shape, data.dtype, codec)
     ds.write(h5s.ALL, h5s.ALL, data)
 
 
-def string_dataset(parent: Any, name: str, text: str) -> None:
+def string_dataset(parent: h5g.GroupID, name: str, text: str) -> None:
     """A new scalar dataset ``name`` holding ``text`` (variable-length UTF-8)."""
     dataset(parent, name, np.array(text, dtype=STRING), {})
 
 
-def attribute(parent: Any, name: str, value: str | np.integer[Any] | np.bool_) -> None:
+def attribute(parent: h5g.GroupID | h5d.DatasetID, name: str,
+              value: str | np.integer[Any] | np.bool_) -> None:
     """A new scalar attribute ``name`` of ``parent`` (a low-level id) holding ``value``."""
     data = np.array(value, dtype=STRING) if isinstance(value, str) else np.asarray(value)
     if data.shape != ():

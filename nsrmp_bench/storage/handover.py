@@ -65,7 +65,7 @@ class Handover:
         self._free = ctx.Semaphore(slots)
         self._next = 0
 
-    def pack(self, obj: Any, alive: Callable[[], None]) -> Packed | None:
+    def pack(self, obj: object, alive: Callable[[], None]) -> Packed | None:
         """Copy ``obj``'s large buffers into the next slot (waiting until the child has
         freed it; ``alive()`` is called while waiting and should raise if the child is
         gone); None when it has none (nothing to gain) or they do not fit a slot: send

@@ -41,13 +41,16 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final
 
 import h5py
 import numpy as np
 
 from nsrmp_bench.errors import InvalidArgument, SchemaVersionError
 from nsrmp_bench.storage import h5_objects
+
+if TYPE_CHECKING:
+    from numpy.typing import DTypeLike
 
 __all__ = [
     "ARRAY_SPECS",
@@ -124,7 +127,7 @@ def check_episode_id(episode_id: str) -> str:
     return episode_id
 
 
-def check_schema_version(version: Any, where: str, supported: int = SUPPORTED_MAJOR) -> str:
+def check_schema_version(version: object, where: str, supported: int = SUPPORTED_MAJOR) -> str:
     """Accept a semver string of major version ``supported``; raise SchemaVersionError."""
     text = version.decode() if isinstance(version, bytes) else str(version)
     parts = text.split(".")
@@ -158,7 +161,7 @@ class ArraySpec:
     ndim: int
 
 
-def _spec(name: str, dtype: Any, ndim: int) -> ArraySpec:
+def _spec(name: str, dtype: DTypeLike, ndim: int) -> ArraySpec:
     return ArraySpec(name, np.dtype(dtype).newbyteorder("<"), ndim)
 
 

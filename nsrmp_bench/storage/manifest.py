@@ -51,7 +51,7 @@ MANIFEST_NAME = "manifest.json"
 MANIFEST_FORMAT = "nsrmp-bench-manifest"
 
 
-def _key(value: Any) -> str:
+def _key(value: object) -> str:
     return value if isinstance(value, str) else json.dumps(value)
 
 

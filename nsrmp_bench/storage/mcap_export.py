@@ -33,7 +33,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,6 +46,9 @@ from nsrmp_bench.storage.atomic import atomic_path, check_output_file
 from nsrmp_bench.storage.reader import EpisodeCollection
 from nsrmp_bench.storage.reader import open as open_collection
 from nsrmp_bench.vocabulary import COLOUR_RGBA, EXTENTS, vocabulary_dict
+
+if TYPE_CHECKING:
+    from mcap.writer import Writer as McapWriter
 
 __all__ = ["EPISODE_SCHEMA_NAME", "ExportSummary", "encode_png", "episode_record",
            "export_mcap", "load_episode_schema"]
@@ -194,7 +197,7 @@ class ExportSummary:
 
 
 class _Exporter:
-    def __init__(self, writer: Any) -> None:
+    def __init__(self, writer: McapWriter) -> None:
         self.w = writer
         self.messages = 0
         schema_mod = require("mcap_protobuf.schema")

@@ -49,7 +49,7 @@ def _camera(text: str) -> Camera:
     return Camera.from_dict(json.loads(text))
 
 
-def _str(ds: Any) -> str:
+def _str(ds: h5py.Dataset) -> str:
     return str(ds.asstr()[()])
 
 

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import torch
 import torch.nn.functional as F
+from numpy.typing import ArrayLike
 from torch import Tensor
 
 from nsrmp_bench.errors import InvalidArgument
@@ -67,7 +68,7 @@ class DenseInputs:
         return tok[:, :t]
 
 
-def _np(x: Any) -> np.ndarray[Any, Any]:
+def _np(x: Tensor | ArrayLike) -> np.ndarray[Any, Any]:
     return x.numpy() if isinstance(x, Tensor) else np.asarray(x)
 
 

@@ -25,7 +25,8 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,6 +36,10 @@ from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.reference_model.reconstruction.inputs import box_mask, moved_objects
 from nsrmp_bench.reference_model.reconstruction.ssim import ssim_scores
 from nsrmp_bench.storage.atomic import atomic_write_bytes, atomic_write_text
+
+if TYPE_CHECKING:
+    from nsrmp_bench.episode import Episode
+    from nsrmp_bench.scoring.submission import Submission
 
 __all__ = ["RENDERERS", "StepScore", "reconstruct_file", "summarise"]
 
@@ -67,7 +72,7 @@ def _write_png(path: Path, rgb: U8) -> None:
     atomic_write_bytes(path, bytes(buf))
 
 
-def _label(cv2: Any, image: U8, text: str) -> U8:
+def _label(cv2: ModuleType, image: U8, text: str) -> U8:
     bar = np.full((18, image.shape[1], 3), 250, np.uint8)
     cv2.putText(bar, text, (4, 13), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (20, 20, 20), 1,
                 cv2.LINE_AA)
@@ -129,7 +134,7 @@ def summarise(scores: list[StepScore]) -> dict[str, Any]:
     }
 
 
-def _records(sub: Any) -> list[tuple[int, NDArray[Any], NDArray[Any] | None]]:
+def _records(sub: Submission) -> list[tuple[int, NDArray[Any], NDArray[Any] | None]]:
     """Per record: its index, its step boxes (S, N, 4) and positions (N, 3) or None."""
     out = []
     for r in range(len(sub)):
@@ -175,7 +180,7 @@ def reconstruct_file(predictions: str | Path, data: str | Path, out: str | Path,
         msg = (f"{predictions}: the header says split {sub.header.split!r} but {data} holds "
                f"split {split!r}; pass that split's data with --data")
         raise InvalidArgument(msg)
-    render: Any
+    render: Callable[[Episode, NDArray[Any], NDArray[Any] | None], list[U8]]
     sim = None
     if renderer == "sim":
         if sim_renderer is None:
@@ -196,7 +201,7 @@ def reconstruct_file(predictions: str | Path, data: str | Path, out: str | Path,
             checkpoint if checkpoint is not None else shipped_checkpoint(MODEL_ID))
         items = EpisodeDataset(collection)  # the network reads each episode's inputs
 
-        def render(ep: Any, steps: NDArray[Any], _pos: Any) -> list[U8]:
+        def render(ep: Episode, steps: NDArray[Any], _pos: NDArray[Any] | None) -> list[U8]:
             return net.reconstruct(items[collection.position(ep.id)], steps)
 
     out = Path(out)

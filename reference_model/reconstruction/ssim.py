@@ -9,7 +9,7 @@ first; the second, over the boxes a step moved, is the honest one.
 
 from __future__ import annotations
 
-from typing import Any
+from types import ModuleType
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,7 +21,7 @@ __all__ = ["ssim_map", "ssim_scores"]
 
 def ssim_map(pred: NDArray[np.uint8], gold: NDArray[np.uint8]) -> NDArray[np.float64]:
     """Per-pixel SSIM ``(H, W)`` of two RGB uint8 images of one size."""
-    metrics: Any = require("skimage.metrics")
+    metrics: ModuleType = require("skimage.metrics")
     if pred.shape != gold.shape:
         msg = f"SSIM needs two images of one size, got {pred.shape} and {gold.shape}"
         raise ValueError(msg)
