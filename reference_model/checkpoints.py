@@ -46,7 +46,13 @@ def read_torch_file(path: Path, what: str = "checkpoint") -> Any:
             return torch.load(path, weights_only=True, map_location="cpu")
     except pickle.UnpicklingError as exc:
         found = re.search(r"Unsupported global: GLOBAL (\S+)", str(exc))
-        detail = f"it names {found.group(1)}" if found else str(exc).strip().split("\n")[0]
+        if found is None:  # not a pickle of objects at all: bytes torch cannot parse
+            said = re.search(r"WeightsUnpickler error:\s*(.+)", str(exc))
+            detail = said.group(1).strip() if said else type(exc).__name__
+            msg = (f"{what} {str(path)!r} cannot be read ({detail}); it is not a torch "
+                   f"checkpoint: pass the .pt file a training run wrote")
+            raise InvalidArgument(msg) from exc
+        detail = f"it names {found.group(1)}"
         msg = (f"{what} {str(path)!r} holds objects other than tensors, numbers, strings and "
                f"containers ({detail}); it is refused because loading it could run "
                "code. Use a checkpoint written by `nsrmp-bench train` (or save_checkpoint: "

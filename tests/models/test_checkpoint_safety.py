@@ -85,3 +85,10 @@ def test_training_resumes_from_its_own_resume_file(tmp_path: Path) -> None:
     again = train_stages(net, [stage(1)], tmp_path, seed=0, validate=lambda s: 0.0,
                          on_best=lambda: None, quiet=True)  # read with weights_only=True
     assert again.stage == 1 and again.best == first.best
+
+
+def test_a_file_that_is_no_checkpoint_says_so(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.pt"
+    bad.write_bytes(b"not a checkpoint")
+    with pytest.raises(InvalidArgument, match=r"cannot be read .*not a torch checkpoint"):
+        load_checkpoint(bad, "nsrm-v2")
