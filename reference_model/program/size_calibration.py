@@ -32,6 +32,8 @@ import numpy as np
 from numpy.typing import NDArray
 from torch import Tensor
 
+from nsrmp_bench.reference_model.program.scene3d import SceneState
+
 __all__ = ["SizeCalibration", "SizePrior", "calibrated_sizes", "fit_size_prior",
            "part_sizes", "scene_scale"]
 
@@ -76,12 +78,17 @@ class SizePrior:
         rows = np.asarray(values, dtype=np.float64).reshape(-1, _COMPONENT)
         return cls(rows[:, :2], rows[:, 2:4], rows[:, 4])
 
+    def components(self, sizes: NDArray[np.float64]) -> NDArray[np.float64]:
+        """log (weight x density) of each component for each row of ``sizes`` (..., 2):
+        (..., K)."""
+        z = (sizes[..., None, :] - self.means) / self.spreads
+        out: NDArray[np.float64] = (-0.5 * (z**2).sum(-1) - np.log(self.spreads).sum(-1)
+                                    - np.log(2 * np.pi) + np.log(self.weights))
+        return out
+
     def log_likelihood(self, sizes: NDArray[np.float64]) -> NDArray[np.float64]:
         """log p of each row of ``sizes`` (..., 2)."""
-        z = (sizes[..., None, :] - self.means) / self.spreads
-        comp = (-0.5 * (z**2).sum(-1) - np.log(self.spreads).sum(-1) - np.log(2 * np.pi)
-                + np.log(self.weights))
-        out: NDArray[np.float64] = np.logaddexp.reduce(comp, axis=-1)
+        out: NDArray[np.float64] = np.logaddexp.reduce(self.components(sizes), axis=-1)
         return out
 
 
@@ -98,9 +105,7 @@ def fit_size_prior(sizes: NDArray[Any], iterations: int = 100) -> SizePrior:
     prior = SizePrior(np.stack([p.mean(0) for p in parts]),
                       np.stack([p.std(0) + 1e-4 for p in parts]), np.array([0.5, 0.5]))
     for _ in range(iterations):
-        z = (x[:, None, :] - prior.means) / prior.spreads
-        comp = (-0.5 * (z**2).sum(-1) - np.log(prior.spreads).sum(-1)
-                + np.log(prior.weights))
+        comp = prior.components(x)
         resp = np.exp(comp - np.logaddexp.reduce(comp, axis=1, keepdims=True))
         mass = resp.sum(0)
         means = (resp.T @ x) / mass[:, None]
@@ -138,8 +143,8 @@ def calibrated_sizes(sizes: Tensor, mask: Tensor, prior: SizePrior,
     return out
 
 
-def part_sizes(states: Sequence[Any]) -> NDArray[np.float64]:
-    """Every object's (width, height) of a part's scene states (``SceneState``)."""
+def part_sizes(states: Sequence[SceneState]) -> NDArray[np.float64]:
+    """Every object's (width, height) of a part's scene states."""
     rows = [np.stack([s.sizes, s.heights], 1) for s in states if len(s)]
     return np.concatenate(rows) if rows else np.zeros((0, 2))
 
