@@ -355,7 +355,7 @@ def _config(title: str, parts: list[ChallengePart], start: str, end: str) -> dic
             "max_submissions": 60 if private else 300,
             "is_restricted_to_select_one_submission": private,
             "is_partial_submission_evaluation_enabled": False,
-            "allowed_submission_file_types": ".jsonl, .parquet",
+            "allowed_submission_file_types": ".jsonl, .gz, .parquet",
         })
     return {
         "title": title,

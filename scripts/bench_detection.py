@@ -27,6 +27,8 @@ import time
 from pathlib import Path
 
 from nsrmp_bench.reference_model.registry import get_model
+from nsrmp_bench.scoring.file_formats import read_jsonl_bytes, write_jsonl_bytes
+from nsrmp_bench.scoring.reader import read_header
 
 PAPER = {  # Table I, extracted BB: IoU-M, with ~10% of scenes excluded (paper split only)
     "nsrm": "0.41 (10% excluded)",
@@ -125,7 +127,7 @@ def main() -> int:
                     _cli("predict", model, "--boxes", str(dfile), "--data", str(data),
                          "--out", str(pred), "--quiet")
                 sc = _score(pred, data, pred.with_suffix(".scores.json"))
-                committed = LEADERBOARD / "predictions" / f"{tag}--{mid}.jsonl"
+                committed = LEADERBOARD / "predictions" / f"{tag}--{mid}.jsonl.gz"
                 gold_pred = (committed if committed.exists()
                              else args.out / f"{tag}--{model}-gold.jsonl")
                 if not gold_pred.exists():
@@ -159,11 +161,11 @@ def main() -> int:
 
 def _entry(part: str, model: str, detector: str, pred: Path) -> None:
     tag = part.replace("/", "-")
-    head = json.loads(pred.read_text().split("\n", 1)[0])["header"]
+    head = read_header(pred)
     model_id = str(head["model"])
     root = LEADERBOARD
-    dest = root / "predictions" / f"{tag}--{model_id}.jsonl"
-    dest.write_bytes(pred.read_bytes())
+    dest = root / "predictions" / f"{tag}--{model_id}.jsonl.gz"
+    write_jsonl_bytes(dest, read_jsonl_bytes(pred))
     entry = {
         "model": model_id,
         "split": part,

@@ -8,7 +8,7 @@ Usage::
 
 For ``paper-v2/test`` and ``steps-v2/test`` it runs ``nsrmp-bench reconstruct`` (timed) on
 the committed predictions files of the oracle and of NSRM
-(``leaderboards/predictions/<part>--<model>.jsonl``) with the network, and on the oracle's
+(``leaderboards/predictions/<part>--<model>.jsonl.gz``) with the network, and on the oracle's
 with ``--renderer sim``, then prints SSIM over the whole image and inside the moved boxes
 (overall, and per step index for steps-v2), images per second, the parameter count and,
 with ``--run``, the training time from the run's model card. ``--limit N`` scores the first
@@ -54,7 +54,7 @@ def main() -> int:
             print(f"{part}: no data under {args.data_root}; skipped")
             continue
         for label, model, renderer in ROWS:
-            preds = args.predictions / f"{part.replace('/', '-')}--{model}.jsonl"
+            preds = args.predictions / f"{part.replace('/', '-')}--{model}.jsonl.gz"
             out = args.out / part.replace("/", "-") / f"{model}-{renderer}"
             cmd = [*_cli(), "reconstruct", str(preds), "--data", str(data), "--out", str(out),
                    "--renderer", renderer, "--no-images",

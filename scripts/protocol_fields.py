@@ -10,9 +10,9 @@ Each entry's ``"protocol"`` is recomputed from facts only: the shipped checkpoin
 (``reference_model/protocols.json``; a ``MODEL+DETECTOR`` entry joins the detector's), the
 baselines' registry (the random baseline's seed from its predictions header), the scorer
 the predictions header names, and the root hash of the committed manifest of the entry's
-split part. Only a predictions file's first line (its header) is rewritten, with
-``"protocol"`` added last; every prediction line keeps its bytes, so every board's figures
-stay the same. Rebuild the site's copies after a change (``nsrmp-bench leaderboard
+split part. Only a predictions file's first line (its header) is rewritten (inside the
+gzip stream of a ``.jsonl.gz`` file), with ``"protocol"`` added last; every prediction line
+keeps its bytes, so every board's figures stay the same. Rebuild the site's copies after a change (``nsrmp-bench leaderboard
 --site-only``).
 """
 
@@ -28,15 +28,15 @@ from nsrmp_bench.baselines.registry import BASELINES
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.reference_model.protocols import shipped_protocol
+from nsrmp_bench.scoring.file_formats import read_jsonl_bytes, write_jsonl_bytes
 from nsrmp_bench.scoring.protocol_fields import ProtocolFields
+from nsrmp_bench.scoring.reader import read_header
 
 ENTRIES = Path(__file__).resolve().parents[1] / "leaderboards" / "entries"
 
 
 def _header(predictions: Path) -> dict[str, Any]:
-    with predictions.open("r", encoding="utf-8") as fh:
-        header: dict[str, Any] = json.loads(fh.readline())["header"]
-    return header
+    return dict(read_header(predictions))
 
 
 def protocol_of(entry_file: Path) -> ProtocolFields:
@@ -62,7 +62,7 @@ def protocol_of(entry_file: Path) -> ProtocolFields:
 
 def _header_line(predictions: Path, protocol: dict[str, Any]) -> tuple[bytes, bytes]:
     """The file's first line as it is and as it should be (the header with ``protocol``)."""
-    first = predictions.read_bytes().split(b"\n", 1)[0]
+    first = read_jsonl_bytes(predictions).split(b"\n", 1)[0]
     header = json.loads(first)
     header["header"]["protocol"] = protocol
     return first, json.dumps(header, allow_nan=False).encode("utf-8")
@@ -87,8 +87,8 @@ def main(argv: list[str] | None = None) -> int:
             continue
         data["protocol"] = want
         path.write_text(json.dumps(data, indent=1, ensure_ascii=False) + "\n", "utf-8")
-        rest = predictions.read_bytes()[len(first):]
-        predictions.write_bytes(line + rest)
+        rest = read_jsonl_bytes(predictions)[len(first):]
+        write_jsonl_bytes(predictions, line + rest)
     print(f"{differ} entr{'y' if differ == 1 else 'ies'} "
           f"{'differ' if args.check else 'rewritten'}")
     return 1 if args.check and differ else 0

@@ -22,7 +22,8 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
-    parser.add_argument("predictions", type=Path, help="predictions file (.jsonl or .parquet)")
+    parser.add_argument("predictions", type=Path,
+                        help="predictions file (.jsonl, .jsonl.gz or .parquet)")
     parser.add_argument("--split", required=True, help="the split id the file must be for")
     parser.add_argument("--data", type=Path, default=None,
                         help="the split's data, to check ids, counts and image bounds too")

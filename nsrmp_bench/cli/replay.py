@@ -48,12 +48,14 @@ _PROFILES = ("fast", "realistic")
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
-    parser.add_argument("predictions", type=Path, help="predictions file (.jsonl or .parquet)")
+    parser.add_argument("predictions", type=Path,
+                        help="predictions file (.jsonl, .jsonl.gz or .parquet)")
     parser.add_argument("--data", required=True, type=Path,
                         help="the split's data (a data directory or shard, or a .jsonl of "
                              "symbolic episodes)")
     parser.add_argument("--out", required=True, type=Path,
-                        help="where to write the achieved predictions (.jsonl or .parquet)")
+                        help="where to write the achieved predictions "
+                        "(.jsonl, .jsonl.gz or .parquet)")
     parser.add_argument("--split", default=None,
                         help="split id, when the data does not record it")
     parser.add_argument("--source", default="auto", choices=_SOURCES,

@@ -50,7 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--part", default=None,
                         help="the part to run (default: the part --data is, else 'test')")
     parser.add_argument("--out", required=True, type=Path,
-                        help="predictions file to write (.jsonl or .parquet)")
+                        help="predictions file to write (.jsonl, .jsonl.gz or .parquet)")
     parser.add_argument("--executor", default="teleport", choices=("teleport", "robot"),
                         help="how moves are carried out (default teleport)")
     parser.add_argument("--boxes", default=None, choices=("gold", "classical", "learned"),

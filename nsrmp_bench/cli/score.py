@@ -47,7 +47,8 @@ def add_common(parser: argparse.ArgumentParser) -> None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
-    parser.add_argument("predictions", type=Path, help="predictions file (.jsonl or .parquet)")
+    parser.add_argument("predictions", type=Path,
+                        help="predictions file (.jsonl, .jsonl.gz or .parquet)")
     add_common(parser)
     parser.add_argument("--breakdown", choices=BREAKDOWNS, default="short",
                         help="categories of the printed breakdown: short (steps, objects, "

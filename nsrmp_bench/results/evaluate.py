@@ -76,10 +76,10 @@ def resolve_source(text: str, models: Sequence[str] = ()) -> Source:
     """A model id (of ``models``), a baseline id or a predictions file; anything else names
     all three."""
     path = Path(text)
-    if path.suffix in {".jsonl", ".parquet"} or path.exists():
+    if path.suffix in {".jsonl", ".gz", ".parquet"} or path.exists():
         if not path.is_file():
-            msg = (f"predictions file {text!r} does not exist; pass a .jsonl/.parquet "
-                   "predictions file, a model id or a baseline id")
+            msg = (f"predictions file {text!r} does not exist; pass a .jsonl/.jsonl.gz/"
+                   ".parquet predictions file, a model id or a baseline id")
             raise InvalidArgument(msg)
         return Source("file", path.name, path)
     from nsrmp_bench.versioned_ids import resolve_id
@@ -90,7 +90,7 @@ def resolve_source(text: str, models: Sequence[str] = ()) -> Source:
             return Source(kind, resolve_id(text, known, kind))
         except UnknownId:
             continue
-    msg = (f"{text!r} is neither a predictions file (.jsonl/.parquet) nor a known id; "
+    msg = (f"{text!r} is neither a predictions file (.jsonl/.jsonl.gz/.parquet) nor a known id; "
            f"models: {', '.join(models)}; baselines: {', '.join(BASELINES)}")
     raise UnknownId(msg)
 

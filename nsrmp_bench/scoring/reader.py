@@ -1,4 +1,5 @@
-"""Reading a predictions file (JSON Lines or Parquet) into a checked :class:`Submission`.
+"""Reading a predictions file (JSON Lines, gzip-compressed JSON Lines or Parquet) into a
+checked :class:`Submission`.
 
 A valid file is read in bulk (:mod:`nsrmp_bench.scoring.bulk`); a file the bulk reader
 finds anything unusual in is read line by line by
@@ -14,14 +15,21 @@ from pathlib import Path
 
 from nsrmp_bench.errors import MissingExtra, SubmissionError
 from nsrmp_bench.scoring.bulk import read_jsonl_bulk, read_parquet_bulk
+from nsrmp_bench.scoring.file_formats import (
+    PredictionsFormat,
+    first_line,
+    predictions_format,
+    read_jsonl_bytes,
+)
 from nsrmp_bench.scoring.submission import PARQUET_COLUMNS, PARQUET_HEADER_KEY, Submission
 from nsrmp_bench.scoring.validate import Problems, SubmissionParser
 
-__all__ = ["read_submission", "read_submission_pending"]
+__all__ = ["read_header", "read_submission", "read_submission_pending"]
 
 
 def read_submission(path: str | Path) -> Submission:
-    """Read and check a predictions file; ``.parquet`` by suffix, anything else JSON Lines.
+    """Read and check a predictions file; ``.parquet`` by suffix, ``.gz`` gzip-compressed
+    JSON Lines, anything else JSON Lines (:mod:`~nsrmp_bench.scoring.file_formats`).
 
     Raises :class:`SubmissionError` listing every problem (with its line) if the file is
     not a valid predictions file.
@@ -41,17 +49,19 @@ def read_submission_pending(path: str | Path) -> tuple[Submission, Problems]:
     p = Path(path)
     if not p.is_file():
         what = "is a directory" if p.is_dir() else "does not exist"
-        msg = f"predictions file {str(p)!r} {what}; pass the path of a .jsonl or .parquet file"
+        msg = (f"predictions file {str(p)!r} {what}; pass the path of a .jsonl, .jsonl.gz or "
+               ".parquet file")
         raise SubmissionError(msg)
     # Parsed JSON holds millions of small lists and no reference cycles: pausing the cyclic
     # garbage collector while they are built saves it rescanning them over and over.
     enabled = gc.isenabled()
     gc.disable()
     try:
-        if p.suffix == ".parquet":
+        fmt = predictions_format(p)
+        if fmt is PredictionsFormat.PARQUET:
             parsed = _read_parquet(p)
         else:
-            data = p.read_bytes()
+            data = read_jsonl_bytes(p)
             bulk = read_jsonl_bulk(str(p), data)
             parsed = bulk if bulk is not None else _read_jsonl(p, data)
         if isinstance(parsed, Submission):
@@ -60,6 +70,34 @@ def read_submission_pending(path: str | Path) -> tuple[Submission, Problems]:
     finally:
         if enabled:
             gc.enable()
+
+
+def read_header(path: str | Path) -> dict[str, object]:
+    """The header object of a predictions file, read alone (its first line, or a Parquet
+    file's schema metadata); not checked beyond being an object. For the header of a file
+    that must be valid, read it with :func:`read_submission`."""
+    p = Path(path)
+    if not p.is_file():
+        msg = (f"predictions file {str(p)!r} does not exist; pass a .jsonl, .jsonl.gz or "
+               ".parquet file")
+        raise SubmissionError(msg)
+    if predictions_format(p) is PredictionsFormat.PARQUET:
+        from nsrmp_bench._optional import require
+
+        meta = require("pyarrow.parquet").read_schema(p).metadata or {}
+        line = b'{"header": ' + meta.get(PARQUET_HEADER_KEY.encode(), b"null") + b"}"
+    else:
+        line = first_line(p)
+    try:
+        obj: object = json.loads(line)
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        obj = None
+    header = obj.get("header") if isinstance(obj, dict) else None
+    if not isinstance(header, dict):
+        msg = (f"predictions file {str(p)!r} has no header object on its first line; check it "
+               "with `nsrmp-bench check-submission`")
+        raise SubmissionError(msg)
+    return header
 
 
 def _read_jsonl(path: Path, data: bytes) -> SubmissionParser:

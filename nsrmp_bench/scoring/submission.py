@@ -1,6 +1,7 @@
 """The predictions file: its header, one prediction per instance, and the parsed table.
 
-A predictions file is JSON Lines (or Parquet with the same columns). Its first line is the
+A predictions file is JSON Lines (gzip-compressed as ``.jsonl.gz``, or Parquet with the
+same columns). Its first line is the
 header, every further line one instance::
 
     {"header": {"format": "nsrmp-bench-predictions", "format_version": "1.0.0",
@@ -21,19 +22,21 @@ line; :mod:`nsrmp_bench.scoring.validate` enforces it with messages that name th
 
 from __future__ import annotations
 
+import io
 import json
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from types import ModuleType
-from typing import Any
+from typing import Any, TextIO
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from nsrmp_bench.dsl.program import GroundedStep
 from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.scoring.file_formats import PredictionsFormat, write_jsonl_bytes, written_format
 from nsrmp_bench.scoring.version import SCORER_ID, SUBMISSION_FORMAT, SUBMISSION_FORMAT_VERSION
 from nsrmp_bench.storage.atomic import atomic_open, atomic_path
 
@@ -193,9 +196,12 @@ class Submission:
 def write_submission(
     path: str | Path, header: SubmissionHeader, predictions: Iterable[Prediction]
 ) -> Path:
-    """Write a predictions file (``.parquet`` by suffix, else JSON Lines), atomically."""
+    """Write a predictions file atomically, in the format its suffix names: ``.jsonl``,
+    ``.jsonl.gz`` (gzip-compressed JSON Lines) or ``.parquet``
+    (:mod:`~nsrmp_bench.scoring.file_formats`)."""
     out = Path(path)
-    if out.suffix == ".parquet":
+    fmt = written_format(out)
+    if fmt is PredictionsFormat.PARQUET:
         from nsrmp_bench._optional import require
 
         pa = require("pyarrow")
@@ -204,16 +210,21 @@ def write_submission(
         with atomic_path(out) as tmp:
             pq.write_table(table, tmp)
         return out
-    if out.suffix not in (".jsonl", ".json", ".ndjson"):
-        msg = f"predictions file {str(out)!r}: use a .jsonl (JSON Lines) or .parquet suffix"
-        raise InvalidArgument(msg)
-
+    if fmt is PredictionsFormat.JSONL_GZ:
+        lines = io.StringIO()
+        _write_jsonl(lines, header, predictions)
+        return write_jsonl_bytes(out, lines.getvalue().encode("utf-8"))
     with atomic_open(out) as fh:
-        fh.write(json.dumps({"header": header.to_dict()}, allow_nan=False) + "\n")
-        for p in predictions:
-            fh.write(json.dumps(p.to_record(), allow_nan=False, separators=(",", ":")))
-            fh.write("\n")
+        _write_jsonl(fh, header, predictions)
     return out
+
+
+def _write_jsonl(fh: TextIO, header: SubmissionHeader, predictions: Iterable[Prediction]) -> None:
+    """The header line, then one line per prediction."""
+    fh.write(json.dumps({"header": header.to_dict()}, allow_nan=False) + "\n")
+    for p in predictions:
+        fh.write(json.dumps(p.to_record(), allow_nan=False, separators=(",", ":")))
+        fh.write("\n")
 
 
 PARQUET_COLUMNS = ("id", "boxes", "program", "step_boxes", "pick", "place", "positions",

@@ -17,7 +17,7 @@ from nsrmp_bench.results.evaluate import find_part, official_test_parts, resolve
 from nsrmp_bench.results.summary import Results
 from nsrmp_bench.scoring.scorer import score
 
-SMOKE_NSRM = BOARDS / "predictions" / "smoke-v2-test--nsrm-v1.jsonl"
+SMOKE_NSRM = BOARDS / "predictions" / "smoke-v2-test--nsrm-v1.jsonl.gz"
 
 
 def test_sources_are_ids_or_files_and_anything_else_is_named(tmp_path: Path) -> None:

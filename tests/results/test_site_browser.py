@@ -187,7 +187,7 @@ def test_every_entry_links_its_predictions_and_a_model_card(site: Path, browser:
         " Array.from(tr.querySelectorAll('a')).map(a => a.href));")
     assert links and all(len(row) == 2 for row in links)
     for predictions, card in links:
-        assert predictions.endswith(".jsonl")
+        assert predictions.endswith(".jsonl.gz")
         _open(browser, Path(unquote(urlparse(card).path)))
         facts = browser.execute_script(
             "return Array.from(document.querySelectorAll('dl.card:not(.protocol) dt'))"

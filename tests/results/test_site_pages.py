@@ -159,7 +159,7 @@ def test_a_card_without_facts_says_so(tmp_path: Path) -> None:
     boards_dir = mirror(tmp_path)
     entry = boards_dir / "entries" / "smoke-v2-test--someone-v1.json"
     entry.write_text(json.dumps({"model": "someone-v1", "split": "smoke-v2/test",
-                                 "predictions": "../predictions/smoke-v2-test--oracle-v1.jsonl",
+                                 "predictions": "../predictions/smoke-v2-test--oracle-v1.jsonl.gz",
                                  "kind": "submission"}))
     boards = read_boards(boards_dir)
     boards["smoke-v2/test"].append({**boards["smoke-v2/test"][0], "entry": entry.stem,

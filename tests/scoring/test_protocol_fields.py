@@ -20,6 +20,7 @@ from nsrmp_bench.leaderboard import build, load_entries
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.scoring.check import check_submission
 from nsrmp_bench.scoring.protocol_fields import PROTOCOL_KEYS, ProtocolFields
+from nsrmp_bench.scoring.reader import read_header
 from nsrmp_bench.storage.manifest import read_manifest
 
 REPO = Path(__file__).resolve().parents[2]
@@ -39,7 +40,7 @@ def test_every_committed_entry_states_its_protocol_truly() -> None:
         assert entry.protocol.boxes == (f"detected:{detector}" if detector else "gold")
         if entry.kind == "baseline":
             assert entry.protocol.training_parts == ()
-        header = json.loads(entry.predictions.read_text().split("\n", 1)[0])["header"]
+        header = read_header(entry.predictions)
         assert header["protocol"] == entry.protocol.to_dict(), entry.name
     done = subprocess.run([sys.executable, str(REPO / "scripts" / "protocol_fields.py"),
                            "--check"], capture_output=True, text=True, check=False)
