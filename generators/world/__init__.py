@@ -22,7 +22,7 @@ Modules (import them by name; this package imports nothing heavy on its own):
 The Panda's pick-and-place lives in its own room, :mod:`nsrmp_bench.generators.robot`, and
 replaying predictions with it in :mod:`nsrmp_bench.generators.replay`.
 
-Choices, with the measurements behind them (``scripts/bench_render.py --breakdown``;
+Choices, with the measurements behind them (``benchmarks/bench_render.py --breakdown``;
 CPU ms per render, 15 objects, 2 CPU cores):
 
 =============================================  =========  ==========

@@ -5,7 +5,7 @@ segmentation) and the world frees them once the episode holds its copy. glibc se
 blocks that large with ``mmap`` and gives them back with ``munmap`` (or trims the top of
 its heap once 6 MiB are free there), so the next render's arrays are fresh pages, each
 zeroed by the kernel on its first touch: about 3,000 page faults per 1024x768 episode,
-8-10% of its CPU time (``scripts/bench_generate.py --breakdown``). With the thresholds
+8-10% of its CPU time (``benchmarks/bench_generate.py --breakdown``). With the thresholds
 raised, freed blocks stay in the heap and are reused.
 
 Nothing a generator computes reads an address, so the bytes do not change (every

@@ -4,7 +4,7 @@ A lean instance (``World.begin(..., scenery_visuals=False)``) is simulated in a 
 whose renderer is switched off (:func:`physics_only_client`): its ``resetSimulation``,
 table, Panda and object bodies then build no render meshes, which were most of the reset's
 cost (a lego brick's body: 1.94 ms with its visual shape, 0.11 ms without, measured by
-``scripts/bench_generate.py --breakdown``). Its composite renders draw the objects here
+``benchmarks/bench_generate.py --breakdown``). Its composite renders draw the objects here
 instead, over the world's cached background: this client is never reset or stepped, and
 keeps a pool of bodies per shape, created once with the same shapes as the world's
 (:func:`~.assets.create_shape_ids`). Each instance takes the first bodies of each shape's

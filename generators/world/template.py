@@ -10,7 +10,7 @@ back through a pipe and exits; the template stays pristine for the next instance
 
 Measured, it is slower than the in-process reset (0.58x the episodes per second, CPU):
 fork, the copy-on-write faults and the child's exit cost more than the reload saves
-(``docs/performance.md``). ``generate`` does not use it; ``scripts/bench_generate.py
+(``docs/performance.md``). ``generate`` does not use it; ``benchmarks/bench_generate.py
 --forked`` does.
 
 The bytes are those of the in-process path (``tests/world/test_template.py``): an instance

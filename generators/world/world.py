@@ -21,7 +21,7 @@ compare them):
   episode realised after another one differed in its last bits from the same episode
   realised first (objects-v1/test 000643 after 000642; the v1 splits were withdrawn for
   it). The reset costs
-  ~30 ms per instance (``scripts/bench_generate.py``); it is the price of a split that
+  ~30 ms per instance (``benchmarks/bench_generate.py``); it is the price of a split that
   is the same bytes whatever the shard size, worker count or order of generation;
 * objects are reduced-coordinate multibodies, like the table and the robot, so all
   contacts go through one solver path;
@@ -111,7 +111,7 @@ class WorldConfig:
     (pybullet_data's visual meshes; 103k triangles: +19 ms per full 320x240 render, twice
     the cost) or ``"none"``. ``floor``: load ``plane.urdf`` (+21 ms per full 320x240
     render, for pixels around the table). ``background``: RGB of pixels that show no body.
-    Measured breakdown: ``scripts/bench_render.py --breakdown``.
+    Measured breakdown: ``benchmarks/bench_render.py --breakdown``.
     ``solver_iterations`` is the world's default (grasping needs it: fewer than 20 lose
     grasps, perf-limits §4); teleport-and-settle runs with ``settle_solver_iterations``
     (measured: 30 instead of 50 cuts settling CPU by 28% with the same rejections and
@@ -204,7 +204,7 @@ class World:
     reads (:func:`~nsrmp_bench.generators.world.assets.collision_obj`) and
     ``begin(..., scenery_visuals=False)`` is honoured. ``lean_reset=False`` is the reset as
     it was (every file as shipped, every visual loaded), kept to measure the difference
-    (``scripts/bench_generate.py``).
+    (``benchmarks/bench_generate.py``).
 
     ``object_twin`` (the default; only with ``lean_reset``) simulates an instance begun
     without scenery visuals in a second client whose renderer is off, and draws its

@@ -4,7 +4,7 @@ A shard's writer creates, per episode, about 16 datasets, 5 groups and 11 attrib
 h5py's high-level calls (``Group.create_dataset``, ``attrs[name] = value``) check their
 arguments in Python and build a new property list, datatype and dataspace for every
 one: about 2 ms of the writer's 17.8 ms of CPU per episode at 320x240
-(``docs/performance.md``; ``scripts/bench_generate.py --writer`` prints what is left).
+(``docs/performance.md``; ``benchmarks/bench_generate.py --writer`` prints what is left).
 The functions here make the same HDF5 calls with the same arguments as those
 high-level calls (``H5Dcreate`` with the same creation property list: chunks, byte
 shuffle, DEFLATE level, no time tracking, then one whole write; ``H5Acreate`` then one

@@ -11,7 +11,7 @@ is stacked onto a covered object or onto its own support, no stack grows past
 subject in 3D (D7), and positions are the moved objects' 3D centres (D8).
 
 :class:`Oracle` replaces parts of the model by the gold answer, one at a time, for the
-oracle ladder of the diagnosis (``scripts/diagnose_program_model.py``); a model never
+oracle ladder of the diagnosis (``benchmarks/diagnose_program_model.py``); a model never
 reads it.
 """
 

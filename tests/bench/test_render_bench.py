@@ -2,7 +2,7 @@
 
 Run with ``pytest tests/bench/test_render_bench.py -o addopts="" --benchmark-only``.
 The figures for the report (episodes/s on both cores against the render-only bound,
-samples/s at 1024x768, rejection rates) come from ``scripts/bench_render.py``, which runs
+samples/s at 1024x768, rejection rates) come from ``benchmarks/bench_render.py``, which runs
 spawned workers in parallel; these benchmarks time single calls in one process.
 """
 

@@ -2,7 +2,7 @@
 
 Run with ``pytest tests/bench/test_robot_bench.py -o addopts="" --benchmark-only``.
 The report's figures (pick-and-places/s and episodes/s on both cores, success rate over
-hundreds of steps, robot-vs-teleport differences) come from ``scripts/bench_robot.py``,
+hundreds of steps, robot-vs-teleport differences) come from ``benchmarks/bench_robot.py``,
 which runs spawned workers in parallel; these time single calls in one process.
 """
 

@@ -1,6 +1,6 @@
 """The oracle ladder of a program model, through the public scorer.
 
-    python scripts/diagnose_program_model.py --model nsrm-v2 --data DATA/paper-v2/test \
+    python benchmarks/diagnose_program_model.py --model nsrm-v2 --data DATA/paper-v2/test \
         [--checkpoint best.pt] [--out DIR]
 
 Each rung replaces one more part of the model by the gold answer and scores the

@@ -2,7 +2,7 @@
 
 Usage::
 
-    .venv/bin/python scripts/bench_detection.py --data-root data [--parts paper-v2/test
+    .venv/bin/python benchmarks/bench_detection.py --data-root data [--parts paper-v2/test
         objects-v2/test] [--detectors learned classical] [--models nsrm nmn]
         [--out runs/detection] [--leaderboard]
 

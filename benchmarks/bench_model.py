@@ -2,7 +2,7 @@
 
 Usage::
 
-    .venv/bin/python scripts/bench_model.py --data-root data --model nsrm|nmn
+    .venv/bin/python benchmarks/bench_model.py --data-root data --model nsrm|nmn
         [--checkpoint PATH] [--out results/MODEL] [--run runs/MODEL]
 
 For each test part found under the root (``smoke-v2/test``, ``paper-v2/test``,

@@ -1,8 +1,8 @@
 """Dask against the local pool: generation rate, scheduler overhead per task, a projection.
 
-    python scripts/bench_dask.py [--split paper-v2] [--part test] [--limit 300]
-                                 [--workers 2] [--shard-size 25] [--empty-tasks 200]
-                                 [--repeat 2]
+    python benchmarks/bench_dask.py [--split paper-v2] [--part test] [--limit 300]
+                                    [--workers 2] [--shard-size 25] [--empty-tasks 200]
+                                    [--repeat 2]
 
 Prints, in one run on the local machine:
 

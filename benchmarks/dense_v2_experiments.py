@@ -10,7 +10,7 @@ episodes of val.
 
 Usage::
 
-    nice -n 10 .venv/bin/python scripts/dense_v2_experiments.py --data data/paper-v2 \
+    nice -n 10 .venv/bin/python benchmarks/dense_v2_experiments.py --data data/paper-v2 \
         --cache /tmp/dense-cache --model dense-v2 --set epochs=2 --set threads=1
 """
 

@@ -3,7 +3,7 @@ states, with the oracle's boxes, NSRM's boxes and the PyBullet reference row.
 
 Usage::
 
-    .venv/bin/python scripts/bench_reconstruction.py --data-root data [--limit 200]
+    .venv/bin/python benchmarks/bench_reconstruction.py --data-root data [--limit 200]
         [--checkpoint PATH] [--run runs/recon] [--out results/recon]
 
 For ``paper-v2/test`` and ``steps-v2/test`` it runs ``nsrmp-bench reconstruct`` (timed) on

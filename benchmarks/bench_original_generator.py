@@ -1,6 +1,6 @@
 """The original NSRMP data generator's speed, measured on the local machine, one core.
 
-    python scripts/bench_original_generator.py --tree /tmp/nsrmp-original
+    python benchmarks/bench_original_generator.py --tree /tmp/nsrmp-original
         [--template SingleStep] [--objects 5] [--language simple] [--type any]
         [--scenes 20] [--width 1024 --height 768] [--seed 0] [--repeat 1]
         [--core N] [--keep DIR]
@@ -13,7 +13,7 @@ seconds per sample with a demo.json*, of ``dair-iitd/nsrmp`` at commit ``bf6ba54
 to 3 instructions, so up to 3 samples, per scene, §5.1), each sample two 1024x768
 TinyRenderer scenes (S00 and S01) written as rgba/depth/mask PNGs, robot motion not
 simulated (objects teleported). Our generator's speed is stated against this
-figure, so it must be measured on the same machine as ours: ``scripts/bench_generate.py``
+figure, so it must be measured on the same machine as ours: ``benchmarks/bench_generate.py``
 prints our side.
 
 How (the method of §7.1-7.3): no file of the original tree is modified. The run is

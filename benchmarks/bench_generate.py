@@ -1,10 +1,10 @@
 """Generation speed before and after the lean reset and the writer thread, side by side.
 
-    python scripts/bench_generate.py [--split paper-v2] [--part test] [--episodes 100]
-                                     [--repeat 5] [--large 100] [--forked] [--breakdown]
-                                     [--original-tree DIR [--original-scenes 20]]
-                                     [--heap-default] [--writer [--large N]]
-                                     [--writer-ablation [--large N]]
+    python benchmarks/bench_generate.py [--split paper-v2] [--part test] [--episodes 100]
+                                        [--repeat 5] [--large 100] [--forked] [--breakdown]
+                                        [--original-tree DIR [--original-scenes 20]]
+                                        [--heap-default] [--writer [--large N]]
+                                        [--writer-ablation [--large N]]
 
 (about 5 minutes with the defaults: each end-to-end run writes one whole shard of 100
 episodes, as the ``generate`` verb does, so the shard's fork and commit count as often as
@@ -40,7 +40,7 @@ Printed:
   the original's 1.02 s per sample on one core of a reference machine
   (the original's documented figure) and, with ``--original-tree`` (a
   checkout of ``dair-iitd/nsrmp`` at ``bf6ba54``), against the original measured in the same run, in
-  the same alternation (``scripts/bench_original_generator.py``: ``--original-scenes``
+  the same alternation (``benchmarks/bench_original_generator.py``: ``--original-scenes``
   scenes of SingleStep, 5 objects, simple, seed 0, pinned to one core; wall seconds per
   sample with a demo.json).
 
@@ -340,7 +340,7 @@ def heap_costs(split: str, part: str, n: int = 40, rounds: int = 3) -> None:
 
 def original_run(tree: Path, scenes: int) -> tuple[float, float]:
     """(wall, CPU) seconds per sample of the original generator at 1024x768, measured in this run
-    (``scripts/bench_original_generator.py``, imported from beside this script)."""
+    (``benchmarks/bench_original_generator.py``, imported from beside this script)."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     try:
         from bench_original_generator import original_seconds_per_sample

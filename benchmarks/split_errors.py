@@ -1,6 +1,6 @@
 """Where a program model's splitter cuts an instruction wrong (measurement only).
 
-    python scripts/split_errors.py --model nsrm-v2 --data DATA/paper-v2/test \
+    python benchmarks/split_errors.py --model nsrm-v2 --data DATA/paper-v2/test \
         [--checkpoint best.pt] [--examples 10]
 
 Compares the splitter's cuts (token positions where steps 2.. start) with the cuts at the

@@ -14,10 +14,10 @@ our own processes) and printed: runs with foreign load are not comparable.
 
 Examples::
 
-    .venv/bin/python scripts/bench_render.py                       # the report's table
-    .venv/bin/python scripts/bench_render.py --quick               # a smoke run
-    .venv/bin/python scripts/bench_render.py --configs 320x240:1:3-5 1024x768:1:3-5:hires
-    .venv/bin/python scripts/bench_render.py --rejections 400      # rejection rates only
+    .venv/bin/python benchmarks/bench_render.py                       # the report's table
+    .venv/bin/python benchmarks/bench_render.py --quick               # a smoke run
+    .venv/bin/python benchmarks/bench_render.py --configs 320x240:1:3-5 1024x768:1:3-5:hires
+    .venv/bin/python benchmarks/bench_render.py --rejections 400      # rejection rates only
 """
 
 from __future__ import annotations

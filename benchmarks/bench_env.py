@@ -1,7 +1,7 @@
 """Environment steps per second of ``nsrmp_bench/Tabletop-v0`` on one core.
 
-    python scripts/bench_env.py DATA [--part test] [--episodes 16] [--executor teleport]
-                                [--repeat 3]
+    python benchmarks/bench_env.py DATA [--part test] [--episodes 16] [--executor teleport]
+                                   [--repeat 3]
 
 Runs, in this one process (PyBullet is single-threaded; BLAS and torch threads are pinned
 to 1 here), for the first ``--episodes`` instances of the part: ``reset`` by instance,

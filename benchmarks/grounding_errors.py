@@ -1,6 +1,6 @@
 """Where a program model's grounding goes wrong, by reference kind (measurement only).
 
-    python scripts/grounding_errors.py --model nsrm-v2 --data DATA/paper-v2/val \
+    python benchmarks/grounding_errors.py --model nsrm-v2 --data DATA/paper-v2/val \
         [--checkpoint best.pt] [--examples 5]
 
 The model runs with the gold split and the gold action (the ladder's rung 2, see

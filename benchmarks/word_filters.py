@@ -1,6 +1,6 @@
 """How well each attribute word of an NSRM v2 checkpoint reads its attribute (measurement only).
 
-    python scripts/word_filters.py --data DATA/paper-v2/val [--checkpoint PATH]
+    python benchmarks/word_filters.py --data DATA/paper-v2/val [--checkpoint PATH]
 
 For every single-token word that names a colour or a shape in the templates (``red``,
 ``cube``, ``box``, ``dice``, ``die``, ``lego``, ...), the word's filter (its concept score of

@@ -15,10 +15,10 @@ minus our own processes' CPU) and printed: runs with foreign load are not compar
 
 Examples::
 
-    .venv/bin/python scripts/bench_robot.py                          # the report's figures
-    .venv/bin/python scripts/bench_robot.py --episodes 20 --processes 1
-    .venv/bin/python scripts/bench_robot.py --profile realistic --episodes 20
-    .venv/bin/python scripts/bench_robot.py --render --json robot_bench.json
+    .venv/bin/python benchmarks/bench_robot.py                          # the report's figures
+    .venv/bin/python benchmarks/bench_robot.py --episodes 20 --processes 1
+    .venv/bin/python benchmarks/bench_robot.py --profile realistic --episodes 20
+    .venv/bin/python benchmarks/bench_robot.py --render --json robot_bench.json
 """
 
 from __future__ import annotations

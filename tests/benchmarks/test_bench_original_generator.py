@@ -1,4 +1,4 @@
-"""scripts/bench_original_generator.py without the original tree (CI has no internet): its
+"""benchmarks/bench_original_generator.py without the original tree (CI has no internet): its
 clear errors, and its shim and counting on a stand-in construct.py (a tiny render)."""
 
 from __future__ import annotations
@@ -8,12 +8,12 @@ from pathlib import Path
 from types import ModuleType
 
 import pytest
-from script_module import load_script
+from script_module import BENCHMARKS, load_script
 
 
 @pytest.fixture(scope="module")
 def bench() -> ModuleType:
-    return load_script("bench_original_generator")
+    return load_script("bench_original_generator", BENCHMARKS)
 
 
 def fake_tree(root: Path, construct: str = "", templates: tuple[str, ...] = ("SingleStep",),

@@ -4,7 +4,7 @@ training time and parameter counts.
 
 Usage::
 
-    OMP_WAIT_POLICY=PASSIVE .venv/bin/python scripts/bench_dense.py --data-root data \
+    OMP_WAIT_POLICY=PASSIVE .venv/bin/python benchmarks/bench_dense.py --data-root data \
         [--models dense-v1 dense5x-v1 dense-v2 dense5x-v2 nsrm] [--splits paper-v2] \
         [--out results/dense]
 
