@@ -10,19 +10,28 @@ dense models, ``baseline`` the baselines, and the closed loop derives one policy
 predictor from it (:mod:`nsrmp_bench.envs.policies`: a program model issues its program,
 a dense model picks and places every step, a baseline issues its prediction's program).
 
+A *retired* predictor (:class:`RetiredPredictor`) is one whose code has left the package: its
+id, kind, description and label stay registered, for the committed predictions, model
+cards and board rows that name it, but nothing runs it. Naming it where a predictor is run
+(``predict``, ``train``, ``rollout``, ``evaluate``, ``robustness``, ``load_model``) is an
+:class:`InvalidArgument` that says which release still runs it and which version replaces
+it; the lists of predictors that can run (:func:`predictors`) leave it out, and a bare name
+means the latest version that is not retired.
+
 This module imports nothing of torch, the models or the generators.
 """
 
 from __future__ import annotations
 
 import enum
+from dataclasses import dataclass
 from typing import Protocol
 
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.versioned_ids import resolve_id
 
-__all__ = ["PREDICTORS", "Kind", "Predictor", "get_predictor", "predictors",
-           "register_predictor"]
+__all__ = ["PREDICTORS", "Kind", "Predictor", "RetiredPredictor", "get_predictor",
+           "predictors", "refuse_retired", "register_predictor"]
 
 
 class Kind(enum.Enum):
@@ -75,8 +84,33 @@ class Predictor(Protocol):
         """Said beside the id wherever its results are shown ("" for none)."""
 
 
+@dataclass(frozen=True)
+class RetiredPredictor:
+    """A predictor whose code has left the package (see the module doc): what the boards,
+    cards and tables say of it, the last release that runs it and the version to run
+    instead."""
+
+    id: str
+    kind: Kind
+    description: str
+    release: str  # the last nsrmp-bench release that runs it ("0.2.0")
+    successor: str  # the id to run instead ("nsrm-v3")
+    label: str = ""  # said beside the id wherever its results are shown
+
+    def error(self) -> InvalidArgument:
+        """What naming it where predictors run raises: the release that has its code and
+        checkpoint, what stays, and the version to pass instead."""
+        name, install = self.id.rsplit("-v", 1)[0], f"nsrmp-bench[torch]=={self.release}"
+        msg = (f"{self.id} was retired after nsrmp-bench {self.release}, the last release "
+               f"with its code and checkpoint (pip install \"{install}\" runs it); its "
+               "committed predictions, model card and board rows stay. The current version "
+               f"is {self.successor}: pass {self.successor} (or {name}) instead")
+        return InvalidArgument(msg)
+
+
 PREDICTORS: dict[str, Predictor] = {}
-"""Predictor id -> its entry (baselines and learned models share one id space)."""
+"""Predictor id -> its entry (baselines, learned models and the retired ones share one id
+space)."""
 
 
 def register_predictor(entry: Predictor) -> Predictor:
@@ -91,14 +125,25 @@ def register_predictor(entry: Predictor) -> Predictor:
     return entry
 
 
-def predictors(*kinds: Kind) -> list[Predictor]:
-    """The registered predictors of ``kinds`` (every kind when none is given), by id."""
-    return [p for _, p in sorted(PREDICTORS.items()) if not kinds or p.kind in kinds]
+def predictors(*kinds: Kind, retired: bool = False) -> list[Predictor]:
+    """The registered predictors of ``kinds`` (every kind when none is given) that can run,
+    by id; the retired ones instead when ``retired``."""
+    return [p for _, p in sorted(PREDICTORS.items())
+            if (not kinds or p.kind in kinds) and isinstance(p, RetiredPredictor) == retired]
+
+
+def refuse_retired(name: str) -> None:
+    """Raise the :class:`RetiredPredictor`'s error if ``name`` is a retired id."""
+    entry = PREDICTORS.get(name)
+    if isinstance(entry, RetiredPredictor):
+        raise entry.error()
 
 
 def get_predictor(name: str, *kinds: Kind) -> Predictor:
     """The predictor ``name`` (an id, or a bare name meaning its latest version) among
-    those of ``kinds`` (every kind when none is given)."""
+    those of ``kinds`` (every kind when none is given) that can run; a retired id is an
+    :class:`InvalidArgument` naming the release that runs it."""
+    refuse_retired(name)
     known = {p.id: p for p in predictors(*kinds)}
     what = " or ".join(k.value for k in kinds) + " predictor" if kinds else "predictor"
     return known[resolve_id(name, known, what)]

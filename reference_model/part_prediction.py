@@ -7,7 +7,7 @@ With ``boxes`` (a detections file, see :mod:`nsrmp_bench.detection.detections`) 
 that reads the initial boxes from its inputs reads the detected boxes in their place, and
 the file is written in the detected-objects protocol (each line carries its
 ``detections``; boxes and program are per detection; the scorer matches them to the gold
-objects). Its model id is ``MODEL+DETECTOR`` (e.g. ``nsrm-v1+detector-v1``).
+objects). Its model id is ``MODEL+DETECTOR`` (e.g. ``nsrm-v3+detector-v1``).
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def checkpoint_label(model_id: str, checkpoint: Path) -> str:
 
     The shipped checkpoint (the same bytes) keeps ``model_id``; any other is named
     ``MODEL_ID@RUN-HASH`` (the checkpoint's folder and the first 8 hex digits of its sha256,
-    e.g. ``nsrm-v1@nsrm-3f2a9c1e``), so that ``compare``, ``evaluate`` and the boards never
+    e.g. ``nsrm-v3@nsrm-3f2a9c1e``), so that ``compare``, ``evaluate`` and the boards never
     take a retrained model for the shipped one.
     """
     from nsrmp_bench.canonical import sha256_file

@@ -2,7 +2,7 @@
 what each learned from, the parts it was trained or selected on and its seeds, joined with
 a detector's when the model read detected boxes. ``predict`` writes them into the headers
 it makes with a shipped checkpoint; ``scripts/protocol_fields.py`` into the leaderboard
-entries."""
+entries (the retired models' facts stay in the table for their committed entries)."""
 
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ def _facts(kind: str, name: str) -> dict[str, Any]:
 
 def shipped_protocol(model_id: str, manifest_root_hash: str, *, detector: str | None = None
                      ) -> ProtocolFields:
-    """The protocol of shipped model ``model_id`` (``nsrm-v1``) run on the part whose root
+    """The protocol of shipped model ``model_id`` (``nsrm-v3``) run on the part whose root
     hash is ``manifest_root_hash``, on the gold boxes or on ``detector``'s."""
     model = _facts("models", model_id)
     supervision = str(model["supervision"])

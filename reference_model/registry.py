@@ -8,6 +8,13 @@ puts the entry in the one registry of predictors too (:data:`nsrmp_bench.predict
 beside the baselines), from which ``predict``, the boards and the closed loop's policies
 follow by the entry's kind. The wheel finds a new sub-package by itself (``setup.py``
 discovers every package under ``reference_model/``).
+
+A superseded model whose code has left the package is a
+:class:`~nsrmp_bench.predictors.RetiredPredictor` here (the v1 models: ``nsrm-v1``,
+``nmn-v1``, ``dense-v1``, ``dense5x-v1``): not in :data:`MODELS`, but its id, kind,
+description and label stay registered for the committed predictions, cards and board rows
+that name it, and :func:`get_model` (so ``train``, ``predict``, ``load_model``) refuses it,
+naming the release that still runs it and the version that replaces it.
 """
 
 from __future__ import annotations
@@ -18,7 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.predictors import register_predictor
+from nsrmp_bench.predictors import RetiredPredictor, refuse_retired, register_predictor
 from nsrmp_bench.reference_model.contract import Kind
 from nsrmp_bench.versioned_ids import resolve_id
 
@@ -61,7 +68,7 @@ class ModelEntry:
 
     @property
     def name(self) -> str:
-        """The id without its version (``nsrm`` of ``nsrm-v1``)."""
+        """The id without its version (``nsrm`` of ``nsrm-v3``)."""
         return self.id.rsplit("-v", 1)[0]
 
 
@@ -86,18 +93,9 @@ def register(entry: ModelEntry) -> ModelEntry:
 _HERE = "nsrmp_bench.reference_model"
 
 for _entry in (
-    ModelEntry("nsrm-v1", Kind.PROGRAM, "neuro-symbolic reference model (gold boxes), learnt "
-               "from initial and final scenes", f"{_HERE}.nsrm:NSRMPredictor"),
     ModelEntry("reconstruction-v1", Kind.RECONSTRUCTION, "scene reconstruction: the image "
                "after each predicted step from the image before it and the moved boxes "
                "(U-Net)", f"{_HERE}.reconstruction:ReconstructionPredictor"),
-    ModelEntry("dense-v1", Kind.DENSE, "dense baseline, not CLIPort: a from-scratch two-stream "
-               "FCN from RGB-D and the instruction to pick and place heatmaps, trained on "
-               "paper-v2/train's single-step episodes", f"{_HERE}.dense:DensePredictor",
-               "not CLIPort"),
-    ModelEntry("dense5x-v1", Kind.DENSE, "dense baseline, not CLIPort, on 5x the data "
-               "(dense5x-v2/train, selected on paper-v2/val)", f"{_HERE}.dense:Dense5xPredictor",
-               "not CLIPort, 5x data"),
     ModelEntry("dense-v2", Kind.DENSE, "dense baseline v2, not CLIPort: dense-v1's "
                "language-conditioned pick stream and a Transporter transport for the place "
                "(pick-centred crop features cross-correlated with the scene's), trained on "
@@ -110,9 +108,6 @@ for _entry in (
     ModelEntry("detector-v1", Kind.DETECTOR, "CenterNet-style object detector (RGB and height "
                "above the table), from scratch; writes detections, not predictions",
                f"{_HERE}.detector:DetectorPredictor"),
-    ModelEntry("nmn-v1", Kind.PROGRAM, "NMN+ attention baseline (gold boxes, box coordinates "
-               "in the object features), learnt from initial and final scenes",
-               f"{_HERE}.nmn:NMNPredictor"),
     ModelEntry("nsrm-v2", Kind.PROGRAM, "neuro-symbolic reference model v2 (gold boxes): "
                "words as concepts, a role parser, relations on the current state, a "
                "splitter and a 3D action rule, learnt from initial and final boxes",
@@ -130,16 +125,36 @@ for _entry in (
 ):
     register(_entry)
 
+_V1_RELEASE = "0.2.0"  # the last release with the v1 models' code and checkpoints
+
+for _retired in (
+    RetiredPredictor("nsrm-v1", Kind.PROGRAM, "neuro-symbolic reference model (gold boxes), "
+                     "learnt from initial and final scenes", _V1_RELEASE, "nsrm-v3"),
+    RetiredPredictor("nmn-v1", Kind.PROGRAM, "NMN+ attention baseline (gold boxes, box "
+                     "coordinates in the object features), learnt from initial and final "
+                     "scenes", _V1_RELEASE, "nmn-v3"),
+    RetiredPredictor("dense-v1", Kind.DENSE, "dense baseline, not CLIPort: a from-scratch "
+                     "two-stream FCN from RGB-D and the instruction to pick and place "
+                     "heatmaps, trained on paper-v2/train's single-step episodes",
+                     _V1_RELEASE, "dense-v2", "not CLIPort"),
+    RetiredPredictor("dense5x-v1", Kind.DENSE, "dense baseline, not CLIPort, on 5x the data "
+                     "(dense5x-v2/train, selected on paper-v2/val)", _V1_RELEASE,
+                     "dense5x-v2", "not CLIPort, 5x data"),
+):
+    register_predictor(_retired)
+
 
 def get_model(name: str) -> ModelEntry:
-    """The model ``name``: an id, or a bare name meaning its latest version."""
+    """The model ``name``: an id, or a bare name meaning its latest version; a retired id
+    (``nsrm-v1``) is an :class:`InvalidArgument` naming the release that runs it."""
+    refuse_retired(name)
     return MODELS[resolve_id(name, MODELS, "model")]
 
 
 def load_model(name: str, checkpoint: str | Path | None = None) -> LearnedModel:
     """A loaded model ready for inference: the shipped checkpoint unless one is given.
 
-    ``name`` is an id (``nsrm-v1``) or a bare name (``nsrm``, its latest version). What the
+    ``name`` is an id (``nsrm-v3``) or a bare name (``nsrm``, its latest version). What the
     model runs depends on its ``kind``: program and dense models are
     :class:`~.base.PredictionModel` (``predict(items)``; see :func:`load_predictor`), the
     detector has ``detect(items)`` and ``detect_part(data)``, the reconstruction network

@@ -8,7 +8,7 @@ Example::
 
 Without ``--checkpoint`` the checkpoint shipped inside the package is used; a predictions
 file of another checkpoint is named ``--name``, else ``MODEL@RUN-HASH`` (e.g.
-``nsrm-v1@nsrm-3f2a9c1e``: the checkpoint's folder and its sha256), never the shipped
+``nsrm-v3@nsrm-3f2a9c1e``: the checkpoint's folder and its sha256), never the shipped
 model's id. The output is
 an ordinary predictions file (grounded program, boxes after each step, final boxes, pick
 and place points, 3D positions) that ``check-submission``, ``score``, ``compare``,
@@ -33,7 +33,7 @@ __all__ = ["add_arguments", "run"]
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
     parser.add_argument("model", help="model name or id: nsrm, nmn, dense, dense5x (or with its "
-                        "version, nsrm-v1)")
+                        "version, nsrm-v2)")
     parser.add_argument("--data", required=True, type=Path,
                         help="one split part's data directory (e.g. data/paper/test)")
     parser.add_argument("--out", required=True, type=output_file, help="predictions file to write")
@@ -52,7 +52,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Predict every episode of the part and write the file."""
     from nsrmp_bench._optional import require
+    from nsrmp_bench.reference_model.registry import get_model
 
+    get_model(args.model)  # an unknown or retired model is said before torch is needed
     require("torch")
     from nsrmp_bench.reference_model.part_prediction import predict_part
 

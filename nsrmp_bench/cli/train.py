@@ -30,7 +30,7 @@ __all__ = ["add_arguments", "run", "test_part"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of the verb."""
-    parser.add_argument("model", help="model name or id (nsrm, nsrm-v1)")
+    parser.add_argument("model", help="model name or id (nsrm, nsrm-v2)")
     parser.add_argument("--data", required=True, type=Path,
                         help="split root holding train/ and val/ (e.g. data/paper)")
     parser.add_argument("--out", required=True, type=Path, help="run directory to write")

@@ -10,7 +10,7 @@ by its id or its bare name (the latest version), and its kind says which:
   one DSL step per move, then done (:class:`BaselinePolicy`). It reads what the baseline
   reads from the environment's episode (``oracle`` the gold program: privileged, the upper
   bound; ``noop`` nothing: done at once, the floor).
-* kind ``program`` (``nsrm``, ``nmn``; or a model id such as ``nsrm-v1``): a shipped
+* kind ``program`` (``nsrm``, ``nmn``; or a model id such as ``nsrm-v2``): a shipped
   program model (torch extra). It reads the instruction, the initial RGB-D and the gold
   boxes (so the environment needs ``boxes="gold"``; ``rollout`` sets it) once, predicts
   its grounded program, and issues it one DSL step per move; each step's target is
@@ -31,7 +31,8 @@ by its id or its bare name (the latest version), and its kind says which:
       nsrmp-bench rollout my_policy:policy --data data/smoke/test --out p.jsonl
 
 A model registered with :func:`nsrmp_bench.reference_model.registry.register` is a policy
-with no other line.
+with no other line; a retired one (``nsrm-v1``: :class:`nsrmp_bench.predictors.RetiredPredictor`)
+is none, and naming it says which release runs it.
 """
 
 from __future__ import annotations
@@ -106,7 +107,7 @@ class ProgramModelPolicy:
         if not isinstance(model, ProgramPredictionModel):
             msg = (f"policy {model_id!r}: its class {type(model).__name__} "
                    f"({model.kind.value} model) has no programs(items); the closed loop issues "
-                   "programs: name a program model (nsrm, nmn, nsrm-v1, ...), or make the "
+                   "programs: name a program model (nsrm, nmn, nsrm-v2, ...), or make the "
                    "model subclass ProgramPredictionModel")
             raise InvalidArgument(msg)
         self.model = model

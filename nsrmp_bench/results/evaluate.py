@@ -1,6 +1,6 @@
 """Evaluating models and predictions files on every official test part in one go.
 
-A *source* is a learned model id (``nsrm``, ``nsrm-v1``: it is run with ``predict``), a
+A *source* is a learned model id (``nsrm``, ``nsrm-v3``: it is run with ``predict``), a
 baseline id (``oracle``, ``noop``, ``random``: written like ``nsrmp-bench baseline``), or a
 predictions file (scored on the split part its header names). Model and baseline sources
 are run on every official test part found under the data root; ``generate=True`` first
@@ -31,6 +31,7 @@ import pandas as pd
 from nsrmp_bench.baselines.registry import BASELINES, run_baseline
 from nsrmp_bench.engine import Engine, InlineEngine, TaskReport, in_task_order
 from nsrmp_bench.errors import InvalidArgument, UnknownId
+from nsrmp_bench.predictors import refuse_retired
 from nsrmp_bench.results.summary import Results, Run
 from nsrmp_bench.scoring.gold import load_episodes
 from nsrmp_bench.scoring.reader import read_submission_pending
@@ -73,8 +74,8 @@ class Runners:
 
 
 def resolve_source(text: str, models: Sequence[str] = ()) -> Source:
-    """A model id (of ``models``), a baseline id or a predictions file; anything else names
-    all three."""
+    """A model id (of ``models``), a baseline id or a predictions file; a retired model's id
+    says which release runs it, anything else names all three."""
     path = Path(text)
     if path.suffix in {".jsonl", ".gz", ".parquet"} or path.exists():
         if not path.is_file():
@@ -83,6 +84,8 @@ def resolve_source(text: str, models: Sequence[str] = ()) -> Source:
             raise InvalidArgument(msg)
         return Source("file", path.name, path)
     from nsrmp_bench.versioned_ids import resolve_id
+
+    refuse_retired(text)  # its committed predictions files are still sources
 
     known_models = {m: m for m in models}
     for kind, known in (("baseline", BASELINES), ("model", known_models)):

@@ -328,26 +328,26 @@ def test_a_checkpoint_that_is_not_the_shipped_one_gets_its_own_name(
     )
     from nsrmp_bench.reference_model.part_prediction import checkpoint_label
 
-    shipped = shipped_checkpoint("nsrm-v1")
+    shipped = shipped_checkpoint("nsrm-v2")
     same = tmp_path / "copy" / "best.pt"
     same.parent.mkdir()
     shutil.copyfile(shipped, same)
-    assert checkpoint_label("nsrm-v1", same) == "nsrm-v1"  # the same bytes: the shipped one
+    assert checkpoint_label("nsrm-v2", same) == "nsrm-v2"  # the same bytes: the shipped one
 
     payload = read_torch_file(shipped)
     state = dict(payload["state"])
     key = next(k for k, v in state.items() if v.is_floating_point())
     state[key] = state[key] + 0.01
-    retrained = save_checkpoint(tmp_path / "run7" / "best.pt", "nsrm-v1", payload["config"],
+    retrained = save_checkpoint(tmp_path / "run7" / "best.pt", "nsrm-v2", payload["config"],
                                 payload["vocab"], state, payload["extra"])
-    label = checkpoint_label("nsrm-v1", retrained)
-    assert label.startswith("nsrm-v1@run7-") and len(label) == len("nsrm-v1@run7-") + 8
+    label = checkpoint_label("nsrm-v2", retrained)
+    assert label.startswith("nsrm-v2@run7-") and len(label) == len("nsrm-v2@run7-") + 8
 
     pred = tmp_path / "mine.jsonl"
-    assert cli("predict", "nsrm-v1", "--data", smoke_v2_test, "--checkpoint", retrained,
+    assert cli("predict", "nsrm-v2", "--data", smoke_v2_test, "--checkpoint", retrained,
                "--out", pred, "--quiet") == 0
     header = json.loads(pred.read_text().splitlines()[0])["header"]
-    assert header["model"] == label and header["base_model"] == "nsrm-v1"
+    assert header["model"] == label and header["base_model"] == "nsrm-v2"
     noop = tmp_path / "noop.jsonl"
     assert cli("baseline", "noop", "--data", smoke_v2_test, "--out", noop) == 0
     capsys.readouterr()

@@ -1,14 +1,17 @@
-"""dense-v2 (not CLIPort): the transport's pieces do what they say, a tiny real training
-run learns to pick and to place on its own data, and the shipped checkpoint predicts a
-valid file (the contract tests in ``test_contract.py`` add same seed same bytes, resume,
-and never reading targets, for every registered model)."""
+"""dense-v2 and dense5x-v2 (not CLIPort): the transport's pieces do what they say, a tiny
+real training run learns to pick and to place on its own data, the shipped checkpoints
+predict valid files without reading targets (the pick an object's centre, that object
+alone moved to the place), and bad input is a clear error (the contract tests in
+``test_contract.py`` add same seed same bytes and resume for every registered model)."""
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from nsrmp_bench.cli.main import main
@@ -126,15 +129,38 @@ def test_tiny_training_learns_to_pick_and_place(tiny_run: Path, smoke_test: Path
 
 
 @pytest.mark.parametrize("model", ["dense-v2", "dense5x-v2"])
-def test_shipped_checkpoint_predicts_a_valid_file(model: str, smoke_test: Path,
-                                                  tmp_path: Path) -> None:
+def test_shipped_checkpoint_predicts_a_valid_file(
+        model: str, smoke_test: Path, tmp_path: Path,
+        hide_targets: Callable[[dict[str, Any]], dict[str, Any]]) -> None:
+    """A valid file, without reading targets, in which the pick is the centre of the
+    picked object's initial box, that box alone moves, and its centre lands on the place
+    (unless the image's edge clips it)."""
+    from nsrmp_bench.dataset import EpisodeDataset
+    from nsrmp_bench.reference_model import load_model
+
+    ds = EpisodeDataset(smoke_test, transform=hide_targets)
+    preds = list(load_model(model).predict([ds[i] for i in range(len(ds))]))
+    assert [p.id for p in preds] == ds.collection.ids
+    assert all(p.pick is not None and p.place is not None for p in preds)
     pred = tmp_path / f"{model}.jsonl"
     assert main(["predict", model, "--data", str(smoke_test), "--out", str(pred)]) == 0
     assert main(["check-submission", str(pred), "--split", "smoke-v2/test", "--data",
                  str(smoke_test)]) == 0
     header = json.loads(pred.read_text().splitlines()[0])["header"]
-    assert header["model"] == model
+    assert header["model"] == model and header["split"] == "smoke-v2/test"
     assert _summary(pred, smoke_test, tmp_path)["identification"]["n"] == 5
+    initial = {ds[i]["id"]: ds[i]["inputs"]["boxes"].numpy() for i in range(len(ds))}
+    for line in pred.read_text().splitlines()[1:]:
+        rec = json.loads(line)
+        boxes, init = np.asarray(rec["boxes"]), initial[rec["id"]]
+        centres = (init[:, :2] + init[:, 2:]) / 2
+        picked = int(((centres - rec["pick"]) ** 2).sum(1).argmin())
+        assert abs(centres[picked] - rec["pick"]).max() < 1e-3  # the pick is a box centre
+        others = [k for k in range(len(init)) if k != picked]
+        assert abs(boxes[others] - init[others]).max() < 1e-3  # only the picked one moves
+        size = init[picked, 2:] - init[picked, :2]
+        if (boxes[picked, 2:] - boxes[picked, :2] >= size - 1e-3).all():  # not clipped
+            assert abs((boxes[picked, :2] + boxes[picked, 2:]) / 2 - rec["place"]).max() < 1e-3
     from importlib import resources
 
     card = resources.files("nsrmp_bench.reference_model").joinpath("checkpoints",
@@ -176,3 +202,28 @@ def test_after_training_dense5x_points_at_the_test_part_it_selected_beside(
     (tmp_path / "paper-v2" / "test").mkdir(parents=True)
     assert test_part(tmp_path / "dense5x-v2", Dense5xV2Config()) == tmp_path / "paper-v2" / "test"
     assert test_part(tmp_path / "paper-v2", DenseV2Config()) == tmp_path / "paper-v2" / "test"
+
+
+def test_picked_object_and_its_moved_box() -> None:
+    from nsrmp_bench.reference_model.dense.inference import moved_boxes, picked_object
+
+    boxes = np.array([[0.0, 0.0, 10.0, 10.0], [20.0, 20.0, 40.0, 30.0], [8.0, 8.0, 30.0, 30.0]])
+    assert picked_object(np.array([5.0, 5.0]), boxes) == 0
+    assert picked_object(np.array([9.0, 9.0]), boxes) == 0  # in two boxes: nearest centre
+    assert picked_object(np.array([100.0, 100.0]), boxes) == 1  # in none: nearest centre
+    moved = moved_boxes(boxes, 1, np.array([50.0, 60.0]), (320, 240))
+    assert moved[1].tolist() == [40.0, 55.0, 60.0, 65.0]
+    assert (moved[[0, 2]] == boxes[[0, 2]]).all()
+    clipped = moved_boxes(boxes, 0, np.array([318.0, 1.0]), (320, 240))
+    assert clipped[0].tolist() == [313.0, 0.0, 320.0, 6.0]
+
+
+@pytest.mark.slow
+def test_bad_input_is_a_clear_error(tiny_paper: Path, tmp_path: Path,
+                                    capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["train", "dense5x", "--data", str(tiny_paper), "--out",
+                 str(tmp_path / "r")]) == 2
+    assert "is not a finished part; pass --set val=PATH" in capsys.readouterr().err
+    assert main(["train", "dense-v2", "--data", str(tiny_paper), "--out", str(tmp_path / "r"),
+                 "--set", "scale=7", "--set", "read_workers=1"]) == 2
+    assert "not divisible by twice the scale 7" in capsys.readouterr().err

@@ -60,8 +60,8 @@ def test_nsrm_reads_detected_boxes_and_the_scorer_matches_them(tiny_run: Path,
     det_id, dfile, n, _ = detect_part("learned", smoke_test, tmp_path / "d.jsonl", tiny_run,
                                       detect_with)
     assert det_id == "detector-v1" and n == 16
-    model_id, pred, _ = predict_part("nsrm-v1", smoke_test, tmp_path / "p.jsonl", boxes=dfile)
-    assert model_id == "nsrm-v1+detector-v1"
+    model_id, pred, _ = predict_part("nsrm-v2", smoke_test, tmp_path / "p.jsonl", boxes=dfile)
+    assert model_id == "nsrm-v2+detector-v1"
     lines = [json.loads(x) for x in pred.read_text().splitlines()]
     assert lines[0]["header"]["boxes"] == "detector-v1"
     assert all(len(r["detections"]) == len(r["boxes"]) for r in lines[1:])

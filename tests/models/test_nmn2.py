@@ -1,6 +1,6 @@
-"""NMN+ v2's step model: what its attention's query reads, and its config across
-checkpoints (the shipped run's card and log are checked with nsrm-v2's in
-``test_nsrm2.py``)."""
+"""NMN+ v2's step model: what its attention's query reads, its config across checkpoints,
+and that it shares every other part with NSRM v2 (the shipped run's card and log are
+checked with nsrm-v2's in ``test_nsrm2.py``)."""
 
 from __future__ import annotations
 
@@ -47,3 +47,21 @@ def test_config_of_earlier_checkpoints() -> None:
     assert NMN2Config().query_words == "embedding"
     with pytest.raises(InvalidArgument, match="query_words"):
         NMN2Config(query_words="states")
+
+
+def test_nmn_shares_nsrm_parts_but_the_step_model() -> None:
+    """NMN+ v2 is NSRM v2's program network (splitter, action rule, the same perception)
+    with attention in place of the concept step model."""
+    from nsrmp_bench.reference_model.nmn2 import NMN2Model
+    from nsrmp_bench.reference_model.nsrm2 import NSRM2Model
+    from nsrmp_bench.reference_model.nsrm2.config import NSRM2Config
+    from nsrmp_bench.reference_model.nsrm2.model import ConceptStepModel
+    from nsrmp_bench.reference_model.program.modules import Perception, ProgramModel, Splitter
+
+    nmn = NMN2Model.build_network(NMN2Config(members=1), 20, {})
+    nsrm = NSRM2Model.build_network(NSRM2Config(members=1), 20, {})
+    assert type(nmn) is type(nsrm) is ProgramModel
+    assert type(nmn.splitter) is type(nsrm.splitter) is Splitter
+    assert type(nmn.step.perception) is type(nsrm.step.perception) is Perception
+    assert isinstance(nmn.step, AttentionStepModel) and isinstance(nsrm.step, ConceptStepModel)
+    assert nmn.rule_values.shape == nsrm.rule_values.shape

@@ -1,6 +1,7 @@
 """NSRM v2 and NMN+ v2 on the shared program parts: a tiny run learns, the shipped
-checkpoints predict valid files without reading targets, and the defects D1, D5 and D8
-of v1 stay fixed."""
+checkpoints predict valid files without reading targets, ``evaluate`` scores a model as
+``predict`` and ``score`` do, bad input is a clear error, an interrupted run resumes, a
+checkpoint round-trips, and the defects D1, D5 and D8 of v1 stay fixed."""
 
 from __future__ import annotations
 
@@ -82,6 +83,92 @@ def test_shipped_checkpoint_predicts_without_targets(
                  str(smoke_test)]) == 0
     header = json.loads(pred.read_text().splitlines()[0])["header"]
     assert header["model"] == model and header["split"] == "smoke-v2/test"
+
+
+def test_evaluate_runs_the_model_and_scores_it_like_predict(
+        smoke_test: Path, tmp_path: Path, iou_m_of: Callable[[Path, Path, Path], float]) -> None:
+    root = tmp_path / "data"
+    (root / "smoke-v2").mkdir(parents=True)
+    (root / "smoke-v2" / "test").symlink_to(smoke_test, target_is_directory=True)
+    pred = tmp_path / "nsrm.jsonl"
+    assert main(["predict", "nsrm-v2", "--data", str(smoke_test), "--out", str(pred)]) == 0
+    out = tmp_path / "results"
+    assert main(["evaluate", "nsrm-v2", "--data-root", str(root), "--out", str(out),
+                 "--quiet"]) == 0
+    from nsrmp_bench.results.summary import Results
+
+    run = Results.read(out).run("nsrm-v2", "smoke-v2/test")
+    assert run is not None and run.kind == "reference"
+    written = out / run.predictions
+    assert written.read_bytes() == pred.read_bytes()
+    assert run.metric("iou_m").value == iou_m_of(pred, smoke_test, tmp_path)
+
+
+@pytest.mark.slow
+def test_bad_input_is_a_clear_error(tiny_paper: Path, tmp_path: Path,
+                                    capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["predict", "nsrm-v2", "--data", str(tiny_paper), "--out",
+                 str(tmp_path / "p.jsonl")]) == 2
+    assert "split root holding the parts: train, val" in capsys.readouterr().err
+    assert main(["predict", "nsrmm", "--data", str(tiny_paper / "val"), "--out",
+                 str(tmp_path / "p.jsonl")]) == 2
+    assert "did you mean 'nsrm'" in capsys.readouterr().err
+    assert main(["train", "nsrm-v2", "--data", str(tiny_paper / "val"), "--out",
+                 str(tmp_path / "r"), "--set", "epochs=3"]) == 2
+    assert "not KEY=VALUE with a field" in capsys.readouterr().err
+    bad = tmp_path / "bad.pt"
+    bad.write_bytes(b"not a checkpoint")
+    assert main(["predict", "nsrm-v2", "--data", str(tiny_paper / "val"), "--out",
+                 str(tmp_path / "p.jsonl"), "--checkpoint", str(bad)]) == 2
+    assert "cannot be read" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_resume_after_interruption_continues(tiny_paper: Path, tmp_path: Path) -> None:
+    """The one training loop (every model's): a run killed after an epoch resumes from
+    ``last.pt`` with the same command and redoes at most the epoch it was killed in."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "r"
+    cmd = ["train", "nsrm-v2", "--data", str(tiny_paper), "--out", str(out), "--quiet",
+           "--set", "members=1", "--set", "epochs_warmup=2", "--set", "epochs_single=3",
+           "--set", "epochs_joint=0"]
+    proc = subprocess.Popen([sys.executable, "-m", "nsrmp_bench.cli.main", *cmd],
+                            start_new_session=True)
+    log = out / "log.jsonl"
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and proc.poll() is None:
+        if log.exists() and log.read_text().count("\n") >= 1:
+            break
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGKILL)  # interrupted after its first epoch
+    proc.wait()
+    done_before = log.read_text().count("\n")
+    assert 1 <= done_before < 5
+    assert main(cmd) == 0  # the same command resumes
+    records = [json.loads(x) for x in log.read_text().splitlines()]
+    pairs = [(r["stage"], r["epoch"]) for r in records]
+    expected = [("warmup", 1), ("warmup", 2), ("single", 1), ("single", 2), ("single", 3)]
+    assert sorted(set(pairs), key=expected.index) == expected
+    assert len(pairs) <= len(expected) + 1  # at most the epoch being killed is redone
+    assert (out / "best.pt").exists()
+
+
+@pytest.mark.slow
+def test_checkpoint_round_trips(tiny_v2: Path, tmp_path: Path) -> None:
+    from nsrmp_bench.reference_model.checkpoints import save_checkpoint
+
+    model = load_model("nsrm-v2", tiny_v2 / "best.pt")
+    copy = save_checkpoint(tmp_path / "copy.pt", "nsrm-v2", model.config.to_dict(),
+                           model.vocab.to_list(), model.model.state_dict())
+    again = load_model("nsrm-v2", copy)
+    a, b = model.model.state_dict(), again.model.state_dict()
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+    assert again.vocab == model.vocab and again.config == model.config
 
 
 def test_d1_one_action_encoding(smoke_test: Path) -> None:

@@ -62,7 +62,7 @@ def test_an_instruction_that_asks_for_nothing_moves_nothing(
             np.testing.assert_array_equal(pred.boxes, np.asarray(it["inputs"]["boxes"]))
 
 
-@pytest.mark.parametrize("model_id", ["nsrm-v3", "nsrm-v2", "nmn-v2", "dense-v2", "nsrm-v1"])
+@pytest.mark.parametrize("model_id", ["nsrm-v3", "nsrm-v2", "nmn-v2", "dense-v2"])
 @pytest.mark.parametrize(("value", "match"), [(None, "NoneType"), (b"put", "bytes"),
                                               ("  ", "whitespace"), (3, "int")])
 def test_every_model_refuses_a_bad_instruction(model_id: str, value: object, match: str,
