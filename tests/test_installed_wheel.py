@@ -47,6 +47,25 @@ for mid in MODELS:
     if importlib.util.find_spec("torch") is not None:
         model = load_model(mid)
         assert model.model_id == mid and model.kind is MODELS[mid].kind, mid
+# the retired models: their cards ship (the boards read them), running one names its release
+from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.predictors import predictors
+retired = predictors(retired=True)
+assert retired
+for p in retired:
+    assert read_training_card(root / f"{p.id}.card.json").model == p.id
+    try:
+        load_model(p.id)
+    except InvalidArgument as exc:
+        assert "pip install" in str(exc), exc
+    else:
+        raise AssertionError(p.id)
+# every leaderboard entry's model card ships where the entry links it
+import json
+entries = Path(str(resources.files("nsrmp_bench.leaderboards").joinpath("entries")))
+for entry in sorted(entries.glob("*.json")):
+    card = json.loads(entry.read_text("utf-8")).get("model_card")
+    assert card is None or (entry.parent / card).is_file(), (entry.name, card)
 print(len(MODELS))
 """
 
