@@ -1,7 +1,7 @@
 """The dense models as a closed-loop policy: a pick and a place point per step.
 
 At every step a registered dense model (kind ``dense``: ``dense`` = ``dense-v2``, or
-``dense-v1``, ``dense5x-v1``, or one registered from outside) reads the *current*
+``dense5x-v2``, or one registered from outside) reads the *current*
 observation (instruction, RGB-D and boxes) as its open-loop predictor reads an episode's
 initial one, and returns its pick (the centre of the box its pick heatmap's peak falls in)
 and its place (the peak of its place heatmap) as a pick-and-place action. The boxes are
@@ -81,9 +81,9 @@ class DensePolicy:
         """The picked object, the pick and the place point: from the shipped dense models'
         heatmaps (``infer``), or from any dense model's prediction (its ``pick`` and
         ``place``; the picked object is the box whose centre is nearest the pick)."""
-        from nsrmp_bench.reference_model.dense import DensePredictor
+        from nsrmp_bench.reference_model.dense import DenseV2Predictor
 
-        if isinstance(self.model, DensePredictor):
+        if isinstance(self.model, DenseV2Predictor):
             _, res = self.model.infer([item])
             return (int(res.subjects[0]), (float(res.picks[0, 0]), float(res.picks[0, 1])),
                     (float(res.places[0, 0]), float(res.places[0, 1])))

@@ -1,12 +1,12 @@
-"""The dense baseline (not CLIPort): a from-scratch, Transporter-style two-stream FCN that
-reads the initial RGB-D and the instruction and predicts a pick and a place heatmap.
+"""The dense baseline (not CLIPort): a from-scratch, Transporter-style FCN that reads the
+initial RGB-D and the instruction and predicts a pick heatmap and, by a transport, a place
+heatmap.
 
-Four registered ids share this module: ``dense-v1`` (trained on the single-step episodes
-of paper-v2/train), ``dense5x-v1`` (on dense5x-v2/train, five times as many, selected
-on paper-v2/val), ``dense-v2`` (v1's pick stream with a Transporter transport for the
-place: :mod:`.transport`; the same data as ``dense-v1``) and ``dense5x-v2`` (``dense-v2``
-on dense5x-v2/train for the same epochs). See ``MODEL_CARD.md`` beside
-this file.
+Two registered ids share this module: ``dense-v2`` (trained on the single-step episodes
+of paper-v2/train; the network is :mod:`.transport`) and ``dense5x-v2`` (``dense-v2`` on
+dense5x-v2/train, five times as many, for the same epochs, selected on paper-v2/val). The
+retired ``dense-v1`` and ``dense5x-v1`` (the same pick stream, a second stream for the
+place) were last released in nsrmp-bench 0.2.0. See ``MODEL_CARD.md`` beside this file.
 """
 
 from __future__ import annotations
@@ -23,31 +23,22 @@ from torch import Tensor
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.reference_model.base import PredictionModel, TrainingPlan
 from nsrmp_bench.reference_model.contract import Kind, ModelConfig
-from nsrmp_bench.reference_model.dense.config import (
-    Dense5xConfig,
-    Dense5xV2Config,
-    DenseConfig,
-    DenseV2Config,
-)
+from nsrmp_bench.reference_model.dense.config import Dense5xV2Config, DenseV2Config
 from nsrmp_bench.reference_model.dense.inference import Inferred, infer
 from nsrmp_bench.reference_model.dense.inputs import DenseInputs, encode_items, encode_part
-from nsrmp_bench.reference_model.dense.model import DenseNet, PickPlaceNet
 from nsrmp_bench.reference_model.dense.transport import TransportNet
 from nsrmp_bench.reference_model.training import Stage
 from nsrmp_bench.scoring.submission import Prediction
 
-__all__ = ["MODEL_ID", "MODEL_ID_5X", "MODEL_ID_5X_V2", "MODEL_ID_V2", "Dense5xConfig",
-           "Dense5xPredictor", "Dense5xV2Config", "Dense5xV2Predictor", "DenseConfig",
-           "DensePredictor", "DenseV2Config", "DenseV2Predictor", "val_accuracy"]
+__all__ = ["MODEL_ID_5X_V2", "MODEL_ID_V2", "Dense5xV2Config", "Dense5xV2Predictor",
+           "DenseV2Config", "DenseV2Predictor", "val_accuracy"]
 
-MODEL_ID = "dense-v1"
-MODEL_ID_5X = "dense5x-v1"
 MODEL_ID_V2 = "dense-v2"
 MODEL_ID_5X_V2 = "dense5x-v2"
 LABEL = "not CLIPort"
 
 
-def val_accuracy(model: PickPlaceNet, enc: DenseInputs) -> tuple[float, float]:
+def val_accuracy(model: TransportNet, enc: DenseInputs) -> tuple[float, float]:
     """(identification, placement) on encoded single-step episodes with targets: the
     picked object is the moved one; the place lies in its box after the step.
 
@@ -85,7 +76,7 @@ def shifted(image: Tensor, pick: Tensor, place: Tensor, grid: tuple[int, int],
             torch.where(ok, qy * w + qx, place))
 
 
-def _loss(model: PickPlaceNet, enc: DenseInputs, rows: Tensor, shift: int = 0) -> Tensor:
+def _loss(model: TransportNet, enc: DenseInputs, rows: Tensor, shift: int = 0) -> Tensor:
     assert enc.pick is not None and enc.place is not None
     image, pick, place = enc.image(rows), enc.pick[rows], enc.place[rows]
     if shift:
@@ -96,35 +87,37 @@ def _loss(model: PickPlaceNet, enc: DenseInputs, rows: Tensor, shift: int = 0) -
             + F.cross_entropy(model.place_logits(x, text, pick), place))
 
 
-class DensePredictor(PredictionModel):
-    """``dense-v1``: trains on the single-step episodes of ``data/train``, selects on those
-    of ``data/val``; predicts from what ``EpisodeDataset`` gives as ``inputs``.
+class DenseV2Predictor(PredictionModel):
+    """``dense-v2``: trains on the single-step episodes of ``data/train``, selects on those
+    of ``data/val``; predicts from what ``EpisodeDataset`` gives as ``inputs``, the place
+    by a Transporter transport (:class:`.transport.TransportNet`).
 
     A single-step model: on a multi-step episode it predicts one pick and place for the
     whole instruction (one object moved, the others where they were)."""
 
-    model_id = MODEL_ID
+    model_id = MODEL_ID_V2
     kind = Kind.DENSE
     label = LABEL
-    config_cls: ClassVar[type[ModelConfig]] = DenseConfig
+    config_cls: ClassVar[type[ModelConfig]] = DenseV2Config
     supervision = ("the moved object's initial and final box centres (pick and place "
                    "pixels) of single-step episodes; nothing else")
     inputs = ("instruction text, initial RGB, initial depth (pooled by scale); the "
               "initial (gold) boxes only to snap the pick to an object and to move its box")
-    data_hint = "e.g. data/paper-v2 (dense) or data/dense5x-v2 (dense5x)"
+    data_hint = "e.g. data/paper-v2"
     tiny_overrides: ClassVar[dict[str, object]] = {
         "epochs": 3, "batch_size": 4, "width": 8, "word_dim": 16, "text_hidden": 16,
-        "val": "val", "val_limit": 8, "read_workers": 1}
-    config: DenseConfig
-    model: PickPlaceNet
+        "val": "val", "val_limit": 8, "read_workers": 1, "decay_epochs": 1, "key_dim": 4,
+        "crop": 3}
+    config: DenseV2Config
+    model: TransportNet
 
     @classmethod
-    def build_network(cls, config: DenseConfig, vocab_size: int,
-                      state: Mapping[str, Tensor]) -> PickPlaceNet:
-        return DenseNet(vocab_size, config)
+    def build_network(cls, config: DenseV2Config, vocab_size: int,
+                      state: Mapping[str, Tensor]) -> TransportNet:
+        return TransportNet(vocab_size, config)
 
     @classmethod
-    def check_data(cls, data: Path, config: DenseConfig) -> None:
+    def check_data(cls, data: Path, config: DenseV2Config) -> None:
         super().check_data(data, config)
         val_dir = (data / config.val).resolve()
         if not (val_dir / "manifest.json").exists():
@@ -134,7 +127,7 @@ class DensePredictor(PredictionModel):
             raise InvalidArgument(msg)
 
     @classmethod
-    def plan_training(cls, data: Path, config: DenseConfig, seed: int) -> TrainingPlan:
+    def plan_training(cls, data: Path, config: DenseV2Config, seed: int) -> TrainingPlan:
         cfg = config
         train_dir, val_dir = data / "train", (data / cfg.val).resolve()
         t0 = time.perf_counter()
@@ -160,11 +153,21 @@ class DensePredictor(PredictionModel):
             checkpoint_extra=lambda: {"val": {k: round(v, 4) for k, v in last.items()}})
 
     @classmethod
-    def stages(cls, cfg: DenseConfig, model: PickPlaceNet, train: DenseInputs) -> list[Stage]:
-        """The curriculum: one stage of ``cfg.epochs`` over the training episodes."""
-        return [Stage("dense", cfg.epochs, torch.arange(len(train)),
-                      lambda: list(model.parameters()), lambda rows: _loss(model, train, rows),
-                      cfg.lr, cfg.batch_size, uses_splitter=True)]
+    def stages(cls, cfg: DenseV2Config, model: TransportNet, train: DenseInputs) -> list[Stage]:
+        """``cfg.epochs`` in all: the last ``decay_epochs`` of them a second stage at
+        ``lr * decay`` (a fresh Adam), both selecting on validation."""
+        rows = torch.arange(len(train))
+
+        def stage(name: str, epochs: int, lr: float) -> Stage:
+            return Stage(name, epochs, rows, lambda: list(model.parameters()),
+                         lambda r: _loss(model, train, r, cfg.shift), lr, cfg.batch_size,
+                         uses_splitter=True)
+
+        first = cfg.epochs - cfg.decay_epochs
+        out = [stage("dense", first, cfg.lr)] if first > 0 else []
+        if cfg.decay_epochs:
+            out.append(stage("dense-decay", cfg.decay_epochs, cfg.lr * cfg.decay))
+        return out
 
     def infer(self, items: Sequence[dict[str, Any]]) -> tuple[DenseInputs, Inferred]:
         """Encode the items' inputs and run the model."""
@@ -181,51 +184,6 @@ class DensePredictor(PredictionModel):
             yield Prediction(id=eid, boxes=res.boxes[i],
                              pick=(float(res.picks[i, 0]), float(res.picks[i, 1])),
                              place=(float(res.places[i, 0]), float(res.places[i, 1])))
-
-
-class Dense5xPredictor(DensePredictor):
-    """``dense5x-v1``: as ``dense-v1`` on ``data/train`` (dense5x-v2), selecting on
-    ``data/../paper-v2/val`` (the config's ``val``)."""
-
-    model_id = MODEL_ID_5X
-    label = "not CLIPort, 5x data"
-    config_cls = Dense5xConfig
-
-
-class DenseV2Predictor(DensePredictor):
-    """``dense-v2``: ``dense-v1``'s data, inputs, supervision, loss and inference, with
-    the place predicted by a Transporter transport (:class:`.transport.TransportNet`)."""
-
-    model_id = MODEL_ID_V2
-    label = LABEL
-    config_cls = DenseV2Config
-    data_hint = "e.g. data/paper-v2"
-    tiny_overrides: ClassVar[dict[str, object]] = {
-        **DensePredictor.tiny_overrides, "decay_epochs": 1, "key_dim": 4, "crop": 3}
-
-    @classmethod
-    def build_network(cls, config: DenseConfig, vocab_size: int,
-                      state: Mapping[str, Tensor]) -> PickPlaceNet:
-        assert isinstance(config, DenseV2Config)
-        return TransportNet(vocab_size, config)
-
-    @classmethod
-    def stages(cls, cfg: DenseConfig, model: PickPlaceNet, train: DenseInputs) -> list[Stage]:
-        """``cfg.epochs`` in all: the last ``decay_epochs`` of them a second stage at
-        ``lr * decay`` (a fresh Adam), both selecting on validation."""
-        assert isinstance(cfg, DenseV2Config)
-        rows = torch.arange(len(train))
-
-        def stage(name: str, epochs: int, lr: float) -> Stage:
-            return Stage(name, epochs, rows, lambda: list(model.parameters()),
-                         lambda r: _loss(model, train, r, cfg.shift), lr, cfg.batch_size,
-                         uses_splitter=True)
-
-        first = cfg.epochs - cfg.decay_epochs
-        out = [stage("dense", first, cfg.lr)] if first > 0 else []
-        if cfg.decay_epochs:
-            out.append(stage("dense-decay", cfg.decay_epochs, cfg.lr * cfg.decay))
-        return out
 
 
 class Dense5xV2Predictor(DenseV2Predictor):

@@ -2,7 +2,7 @@
 
 The pick is the argmax cell of the pick heatmap; the picked object is the initial box
 that holds that point (the one whose centre is nearest if several or none do), and the
-pick reported is that box's centre (the point the place stream was trained to be given).
+pick reported is that box's centre (the point the transport was trained to be given).
 The place is the centre of the argmax cell of the place heatmap given that pick. The
 predicted final boxes are the initial boxes with the picked one moved so that its centre
 lands on the place (clipped to the image).
@@ -17,7 +17,7 @@ import numpy as np
 import torch
 
 from nsrmp_bench.reference_model.dense.inputs import DenseInputs, cell_centres, cells_of
-from nsrmp_bench.reference_model.dense.model import PickPlaceNet
+from nsrmp_bench.reference_model.dense.transport import TransportNet
 
 __all__ = ["Inferred", "infer", "moved_boxes", "picked_object"]
 
@@ -57,7 +57,7 @@ def moved_boxes(boxes: np.ndarray[Any, Any], subject: int, place: np.ndarray[Any
 
 
 @torch.no_grad()
-def infer(model: PickPlaceNet, enc: DenseInputs, batch_size: int = 64) -> Inferred:
+def infer(model: TransportNet, enc: DenseInputs, batch_size: int = 64) -> Inferred:
     """Pick, place and final boxes of every episode of ``enc`` (model in eval mode)."""
     model.eval()
     subjects: list[int] = []

@@ -1,32 +1,23 @@
-"""The dense network: a text encoder and two fully convolutional streams, Transporter-style.
+"""The dense network's parts: a text encoder and a fully convolutional stream, Transporter-style.
 
-* **Text**: word embeddings and a BiGRU; its final states give every conv layer of both
-  streams a FiLM scale and shift (the instruction conditions the image features).
-* **Pick stream** (Transporter's attention stream): RGB-D plus two coordinate channels,
-  pooled to ``1/scale`` of the image, through a small U-shaped FCN (a stride-2 stem, one
-  more stride-2 level with two dilated layers for context) to one logit per cell of a
-  grid at ``1/(2 scale)`` of the image: the pick heatmap.
-* **Place stream** (the transport stream): the same input plus a channel holding the
-  pick (a Gaussian at the gold pick in training, at the predicted pick at inference)
-  through a second FCN of the same shape to the place heatmap.
-
-Both heatmaps are at ``1/(2 scale)`` of the image: 40 x 30 cells of 8 px for 320 x 240
-and scale 4.
+* **Text**: word embeddings and a BiGRU; its final states give every conv layer of a
+  stream a FiLM scale and shift (the instruction conditions the image features).
+* **Stream**: RGB-D plus two coordinate channels, pooled to ``1/scale`` of the image,
+  through a small U-shaped FCN (a stride-2 stem, one more stride-2 level with two dilated
+  layers for context) to its channels per cell of a grid at ``1/(2 scale)`` of the image:
+  40 x 30 cells of 8 px for 320 x 240 and scale 4. The pick heatmap is one such stream;
+  the transport (:mod:`.transport`) adds two more for its keys and queries.
 """
 
 from __future__ import annotations
-
-from abc import ABCMeta, abstractmethod
 
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from nsrmp_bench.reference_model.dense.config import DenseConfig
 from nsrmp_bench.reference_model.tokens import PAD
 
-__all__ = ["DenseNet", "FiLMConv", "PickPlaceNet", "Stream", "TextEncoder", "coordinates",
-           "pick_channel"]
+__all__ = ["IMAGE_CHANNELS", "FiLMConv", "Stream", "TextEncoder", "coordinates"]
 
 IMAGE_CHANNELS = 4  # RGB and depth
 
@@ -100,55 +91,3 @@ def coordinates(batch: int, height: int, width: int) -> Tensor:
     ys = torch.linspace(-1.0, 1.0, height)[:, None].expand(height, width)
     xs = torch.linspace(-1.0, 1.0, width)[None, :].expand(height, width)
     return torch.stack([xs, ys])[None].expand(batch, 2, height, width)
-
-
-def pick_channel(cells: Tensor, height: int, width: int, sigma: float) -> Tensor:
-    """(B, 1, H, W): a Gaussian of ``sigma`` cells at each row's pick cell (flat index)."""
-    cy, cx = (cells // width).float(), (cells % width).float()
-    ys = torch.arange(height, dtype=torch.float32)[None, :, None]
-    xs = torch.arange(width, dtype=torch.float32)[None, None, :]
-    d2 = (ys - cy[:, None, None]) ** 2 + (xs - cx[:, None, None]) ** 2
-    return torch.exp(-d2 / (2 * sigma * sigma))[:, None]
-
-
-class PickPlaceNet(nn.Module, metaclass=ABCMeta):
-    """What inference and the loss use of a dense network: a text encoder, the stream
-    input, pick logits and place logits given a pick (``dense-v1``'s :class:`DenseNet`,
-    ``dense-v2``'s transport network)."""
-
-    text: TextEncoder
-    pick: Stream
-
-    def image_input(self, image: Tensor) -> Tensor:
-        """The stream input: the image (B, 4, H, W) with coordinate channels."""
-        b, _, h, w = image.shape
-        return torch.cat([image, coordinates(b, h, w)], dim=1)
-
-    def pick_logits(self, x: Tensor, text: Tensor) -> Tensor:
-        """(B, H/2 * W/2) pick logits from :meth:`image_input` and the text vector."""
-        logits: Tensor = self.pick(x, text)
-        return logits.flatten(1)
-
-    @abstractmethod
-    def place_logits(self, x: Tensor, text: Tensor, pick_cells: Tensor) -> Tensor:
-        """(B, H/2 * W/2) place logits given the pick cell (on that grid) of each row."""
-
-
-class DenseNet(PickPlaceNet):
-    """Instruction and RGB-D -> pick and place logits over the image's cells."""
-
-    def __init__(self, vocab_size: int, cfg: DenseConfig) -> None:
-        super().__init__()
-        self.cfg = cfg
-        text_dim = 2 * cfg.text_hidden
-        self.text = TextEncoder(vocab_size, cfg.word_dim, cfg.text_hidden)
-        self.pick = Stream(IMAGE_CHANNELS + 2, cfg.width, text_dim)
-        self.place = Stream(IMAGE_CHANNELS + 3, cfg.width, text_dim)
-
-    def place_logits(self, x: Tensor, text: Tensor, pick_cells: Tensor) -> Tensor:
-        """(B, H/2 * W/2) place logits given the pick cell (on that grid) of each row."""
-        h, w = x.shape[-2:]
-        ch = pick_channel(pick_cells, h // 2, w // 2, self.cfg.pick_sigma)
-        ch = F.interpolate(ch, size=(h, w), mode="nearest")
-        logits: Tensor = self.place(torch.cat([x, ch], dim=1), text)
-        return logits.flatten(1)

@@ -1,8 +1,8 @@
-"""``dense-v2``'s network: v1's pick stream and a Transporter transport for the place.
+"""``dense-v2``'s network: a pick stream and a Transporter transport for the place.
 
-* **Text** and **pick stream**: as ``dense-v1`` (:mod:`.model`): a BiGRU's final states
-  FiLM-condition every conv layer; the pick heatmap is one logit per cell of the grid at
-  ``1/(2 scale)`` of the image.
+* **Text** and **pick stream** (:mod:`.model`; as ``dense-v1`` had them): a BiGRU's final
+  states FiLM-condition every conv layer; the pick heatmap is one logit per cell of the
+  grid at ``1/(2 scale)`` of the image.
 * **Key stream**: an FCN of the pick stream's shape over the whole stream input, ending in
   ``key_dim`` channels per heatmap cell (the scene's key features), FiLM-conditioned on
   the instruction.
@@ -23,14 +23,14 @@ import math
 
 import torch
 import torch.nn.functional as F
-from torch import Tensor
+from torch import Tensor, nn
 
 from nsrmp_bench.reference_model.dense.config import DenseV2Config
 from nsrmp_bench.reference_model.dense.model import (
     IMAGE_CHANNELS,
-    PickPlaceNet,
     Stream,
     TextEncoder,
+    coordinates,
 )
 
 __all__ = ["TransportNet", "crop_around", "rotate"]
@@ -70,8 +70,9 @@ def rotate(x: Tensor, k: int) -> Tensor:
     return F.grid_sample(src, grid, align_corners=False)
 
 
-class TransportNet(PickPlaceNet):
-    """Instruction and RGB-D -> pick logits (attention) and place logits (transport)."""
+class TransportNet(nn.Module):
+    """Instruction and RGB-D -> pick logits (attention) and place logits (transport): what
+    inference and the loss use of the dense network."""
 
     def __init__(self, vocab_size: int, cfg: DenseV2Config) -> None:
         super().__init__()
@@ -82,6 +83,16 @@ class TransportNet(PickPlaceNet):
         self.pick = Stream(c_in, cfg.width, text_dim)
         self.key = Stream(c_in, cfg.width, text_dim, c_out=cfg.key_dim)
         self.query = Stream(c_in, cfg.width, text_dim, c_out=cfg.key_dim)
+
+    def image_input(self, image: Tensor) -> Tensor:
+        """The stream input: the image (B, 4, H, W) with coordinate channels."""
+        b, _, h, w = image.shape
+        return torch.cat([image, coordinates(b, h, w)], dim=1)
+
+    def pick_logits(self, x: Tensor, text: Tensor) -> Tensor:
+        """(B, H/2 * W/2) pick logits from :meth:`image_input` and the text vector."""
+        logits: Tensor = self.pick(x, text)
+        return logits.flatten(1)
 
     def place_logits(self, x: Tensor, text: Tensor, pick_cells: Tensor) -> Tensor:
         """(B, H/2 * W/2) place logits: the key features correlated with the features of
