@@ -1,12 +1,12 @@
 """The dense-v2 development runs and the transport ablation, on cached encodings.
 
 Reads (once, then caches) the single-step episodes of ``DATA/train`` and ``DATA/val``
-encoded as the dense models read them, then trains one dense model (``dense-v1``: v1's
-place stream; ``dense-v2``: the transport) with config overrides through the shared
-training loop, printing validation identification and placement after every epoch and
-the training seconds. The figures are the in-loop ones (``val_accuracy``: the picked
-object is the moved one; the place lies in its box after the step), on the single-step
-episodes of val.
+encoded as the dense models read them, then trains one dense model (``dense-v2``, the
+transport; the v1 place stream it was compared with is in nsrmp-bench 0.2.0) with config
+overrides through the shared training loop, printing validation identification and
+placement after every epoch and the training seconds. The figures are the in-loop ones
+(``val_accuracy``: the picked object is the moved one; the place lies in its box after the
+step), on the single-step episodes of val.
 
 Usage::
 
