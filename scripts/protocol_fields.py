@@ -12,8 +12,8 @@ baselines' registry (the random baseline's seed from its predictions header), th
 the predictions header names, and the root hash of the committed manifest of the entry's
 split part. Only a predictions file's first line (its header) is rewritten (inside the
 gzip stream of a ``.jsonl.gz`` file), with ``"protocol"`` added last; every prediction line
-keeps its bytes, so every board's figures stay the same. Rebuild the site's copies after a change (``nsrmp-bench leaderboard
---site-only``).
+keeps its bytes, so every board's figures stay the same. Rebuild the site's copies after a
+change (``nsrmp-bench leaderboard --site-only``).
 """
 
 from __future__ import annotations

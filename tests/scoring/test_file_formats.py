@@ -13,8 +13,8 @@ import pytest
 from nsrmp_bench.cli.main import main
 from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.errors import InvalidArgument, SubmissionError
-from nsrmp_bench.leaderboard import load_entries
 from nsrmp_bench.generators.sampler import sample_episode
+from nsrmp_bench.leaderboard import load_entries
 from nsrmp_bench.scoring import read_submission, score
 from nsrmp_bench.scoring.file_formats import (
     PredictionsFormat,
