@@ -159,9 +159,9 @@ def load_model(name: str, checkpoint: str | Path | None = None) -> LearnedModel:
     :class:`~.base.PredictionModel` (``predict(items)``; see :func:`load_predictor`), the
     detector has ``detect(items)`` and ``detect_part(data)``, the reconstruction network
     ``reconstruct(item, step_boxes)`` and ``chain(...)``; items are ``EpisodeDataset``'s."""
+    entry = get_model(name)  # an unknown or retired id is said before torch is needed
     from nsrmp_bench.reference_model.checkpoints import shipped_checkpoint
 
-    entry = get_model(name)
     path = Path(checkpoint) if checkpoint is not None else shipped_checkpoint(entry.id)
     return entry.model_cls().from_checkpoint(path)
 

@@ -69,6 +69,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Roll out, write the predictions and the report."""
+    import nsrmp_bench.reference_model.registry  # noqa: F401  (registers the retired ids)
+    from nsrmp_bench.predictors import refuse_retired
+
+    refuse_retired(args.policy)  # a retired model is said before gymnasium is needed
     from nsrmp_bench.envs.policies import (
         check_policy,
         policy_predictor,
