@@ -18,17 +18,24 @@ from nsrmp_bench.episode import Instruction
 from nsrmp_bench.errors import GenerationError, InvalidArgument
 from nsrmp_bench.generators.program_sampler import ProgramSample
 from nsrmp_bench.generators.references import Reference
-from nsrmp_bench.generators.templates import Language, StepTemplate, WordChoice
+from nsrmp_bench.generators.templates import (
+    Language,
+    StepTemplate,
+    WordChoice,
+    load_phenomena,
+)
 from nsrmp_bench.scene import SceneObject
-from nsrmp_bench.vocabulary import PHRASINGS
+from nsrmp_bench.vocabulary import PHRASINGS, SHAPES
 
-__all__ = ["HELD_OUT_MODES", "render_instruction"]
+__all__ = ["HELD_OUT_MODES", "PhraseWriter", "render_instruction"]
 
 _HELD_OUT_P = 0.5
 
 
 @dataclass
-class _Writer:
+class PhraseWriter:
+    """Draws words, noun phrases and templates for one instruction from ``rng``."""
+
     rng: np.random.Generator
     language: Language
     family: str
@@ -36,6 +43,8 @@ class _Writer:
     used_templates: list[str] = field(default_factory=list)
     used_held_out: list[str] = field(default_factory=list)
     held_out_template: bool = False
+    phenomenon_phrasing: str = "seen"
+    """Which phrasings of ``phenomena.json`` superlatives take: seen or held_out."""
 
     def word(self, choice: WordChoice) -> str:
         if self.held_out == "require" and choice.held_out and self.rng.random() < _HELD_OUT_P:
@@ -61,8 +70,14 @@ class _Writer:
 
     def noun_phrase(self, ref: Reference) -> str:
         phrases = self.language.phrases
-        shape = self.slot(f"shape:{ref.shape}") if ref.shape else ""
+        # a shape outside the world (an absent referent) is written as it is
+        shape = (self.slot(f"shape:{ref.shape}") if ref.shape in SHAPES else ref.shape or "")
         colour = ref.colour or ""
+        if ref.extreme is not None:
+            forms = load_phenomena()["superlative"][self.phenomenon_phrasing]
+            noun = self.fill(phrases["head"][ref.form], colour=colour, shape=shape)
+            form = self.pick(forms[ref.extreme][str(ref.rank)])
+            return self.fill(form, noun=noun)
         if ref.relation is None or ref.anchor is None:
             form = self.pick(phrases["attribute"][self.family][ref.form])
             return self.fill(form, colour=colour, shape=shape)
@@ -95,8 +110,10 @@ def render_instruction(
     phrasing: str,
     held_out: str = "exclude",
     max_tries: int = 32,
+    phenomenon_phrasing: str = "seen",
 ) -> Instruction:
-    """Write ``sample`` as an instruction in the ``phrasing`` family."""
+    """Write ``sample`` as an instruction in the ``phrasing`` family (superlative
+    references in the ``phenomenon_phrasing`` phrasings: seen or held_out)."""
     if phrasing not in PHRASINGS:
         msg = f"phrasing={phrasing!r}; expected one of {list(PHRASINGS)}"
         raise InvalidArgument(msg)
@@ -104,7 +121,7 @@ def render_instruction(
         msg = f"held_out={held_out!r}; expected one of {list(HELD_OUT_MODES)}"
         raise InvalidArgument(msg)
     for _ in range(max_tries):
-        w = _Writer(rng, language, phrasing, held_out)
+        w = PhraseWriter(rng, language, phrasing, held_out, phenomenon_phrasing=phenomenon_phrasing)
         clauses: list[str] = []
         lexed: list[str] = []
         ids: list[str] = []

@@ -1,9 +1,11 @@
 """Referring expressions: how a program names an object, and their DSL nodes.
 
-A :class:`Reference` names an object by attributes (colour, shape, or both) or by one
-relation to an anchor object that is itself named by attributes. :func:`describe` lists
-every reference that picks out exactly one object in a given state; :func:`compile_reference`
-appends the reference's nodes to a program under construction.
+A :class:`Reference` names an object by attributes (colour, shape, or both), by one
+relation to an anchor object that is itself named by attributes, or by a superlative over
+the objects its attributes name ("the leftmost cube": ``extreme`` and ``rank``). The
+``*_references`` functions list every reference of a kind that picks out exactly one object
+in a given state; :func:`compile_reference` appends the reference's nodes to a program under
+construction.
 """
 
 from __future__ import annotations
@@ -12,11 +14,18 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from nsrmp_bench.dsl.program import Node
-from nsrmp_bench.dsl.relations import related
+from nsrmp_bench.dsl.relations import ranked, related
+from nsrmp_bench.errors import AmbiguousReference, InvalidReference
 from nsrmp_bench.scene import SceneObject, State
 from nsrmp_bench.vocabulary import RELATIONS
 
-__all__ = ["Reference", "attribute_references", "compile_reference", "relational_references"]
+__all__ = [
+    "Reference",
+    "attribute_references",
+    "compile_reference",
+    "relational_references",
+    "superlative_references",
+]
 
 
 @dataclass(frozen=True)
@@ -27,6 +36,10 @@ class Reference:
     shape: str | None = None
     relation: str | None = None
     anchor: Reference | None = None
+    extreme: str | None = None
+    """The side of a superlative (``left``: the leftmost); None for other references."""
+    rank: int = 1
+    """A superlative's rank from that side (1 = the most, 2 = the second from it)."""
 
     @property
     def relational(self) -> bool:
@@ -81,8 +94,30 @@ def relational_references(
     return out
 
 
+def superlative_references(
+    objects: Sequence[SceneObject], state: State, target: int, *, max_rank: int = 2
+) -> list[Reference]:
+    """Superlatives over an attribute-named set of at least two objects that pick out
+    ``target`` on ``state`` (rank up to ``max_rank``, each apart from its neighbours)."""
+    obj = objects[target]
+    out = []
+    for colour, shape in ((None, obj.shape), (obj.colour, None), (None, None)):
+        members = [i for i, o in enumerate(objects) if _matches(o, colour, shape)]
+        if len(members) < 2:
+            continue
+        for side in RELATIONS:
+            for rank in range(1, min(max_rank, len(members)) + 1):
+                try:
+                    if ranked(state, members, side, rank) == target:
+                        out.append(Reference(colour, shape, extreme=side, rank=rank))
+                except (InvalidReference, AmbiguousReference):
+                    continue
+    return out
+
+
 def compile_reference(ref: Reference, nodes: list[Node]) -> int:
-    """Append ``ref``'s nodes to ``nodes``; returns the index of its ``unique`` node."""
+    """Append ``ref``'s nodes to ``nodes``; returns the index of its ``unique`` (or, for a
+    superlative, ``extreme``) node."""
     if ref.anchor is not None and ref.relation is not None:
         anchor = compile_reference(ref.anchor, nodes)
         nodes.append(Node("relate", (anchor,), (ref.relation,)))
@@ -91,5 +126,8 @@ def compile_reference(ref: Reference, nodes: list[Node]) -> int:
     for concept in (ref.shape, ref.colour):
         if concept is not None:
             nodes.append(Node("filter", (len(nodes) - 1,), (concept,)))
-    nodes.append(Node("unique", (len(nodes) - 1,)))
+    if ref.extreme is not None:
+        nodes.append(Node("extreme", (len(nodes) - 1,), (ref.extreme, str(ref.rank))))
+    else:
+        nodes.append(Node("unique", (len(nodes) - 1,)))
     return len(nodes) - 1

@@ -17,6 +17,7 @@ from nsrmp_bench.config import EpisodeConfig
 from nsrmp_bench.episode import SeedInfo, SymbolicEpisode
 from nsrmp_bench.errors import GenerationError
 from nsrmp_bench.generators.instructions import render_instruction
+from nsrmp_bench.generators.phenomena import write_phenomenon
 from nsrmp_bench.generators.program_sampler import sample_program
 from nsrmp_bench.generators.scene_sampler import sample_scene
 from nsrmp_bench.generators.templates import load_language
@@ -49,6 +50,15 @@ def sample_symbolic(config: EpisodeConfig, seed: SeedInfo, episode_id: str) -> S
     scene = sample_scene(
         rng, config.objects, pairs=config.pairs, duplicates=config.forced_duplicates
     )
+    if config.phenomenon:
+        written = write_phenomenon(rng, config, scene)
+        return SymbolicEpisode(
+            id=episode_id, generator=GENERATOR_ID, seed=seed, scene=scene,
+            program=written.sample.program, grounded=written.sample.grounded,
+            instruction=written.instruction, states=written.sample.states,
+            references=written.sample.labels, phenomenon=config.phenomenon,
+            abstain=written.abstain,
+        )
     sample = sample_program(rng, scene, config.steps, relational=config.relational)
     if config.required_pairs and not (
         _referenced_pairs(sample, scene.objects) & set(config.required_pairs)

@@ -2,7 +2,8 @@
 
 ``templates/steps.json`` holds the step templates (each with several text variants and
 the actions it fits), ``templates/phrases.json`` the noun-phrase forms per phrasing family
-(simple / complex / compound) and ``templates/synonyms.json`` the synonyms and connectors.
+(simple / complex / compound), ``templates/synonyms.json`` the synonyms and connectors,
+and ``templates/phenomena.json`` the phrasings of the semantics split's phenomena.
 A subset of templates and synonyms is marked ``held_out``: it appears only in the
 out-of-distribution language split.
 """
@@ -17,9 +18,9 @@ from importlib import resources
 from typing import Any
 
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.vocabulary import ACTIONS, PHRASINGS
+from nsrmp_bench.vocabulary import ACTIONS, PHENOMENA, PHRASINGS
 
-__all__ = ["Language", "StepTemplate", "WordChoice", "load_language"]
+__all__ = ["Language", "StepTemplate", "WordChoice", "load_language", "load_phenomena"]
 
 _SLOT = re.compile(r"\{([a-z_:]+)\}")
 
@@ -134,3 +135,25 @@ def load_language() -> Language:
         final_connectors=_choice(syn["final_connectors"], "synonyms.json final_connectors"),
         pronoun_probability=float(syn["pronoun_probability"]),
     )
+
+
+@cache
+def load_phenomena() -> dict[str, Any]:
+    """The phenomena phrasings (``templates/phenomena.json``), checked and cached.
+
+    Every phenomenon with phrasings has a ``seen`` and a ``held_out`` entry; the seen
+    and held-out phrasings never share a text.
+    """
+    data = _read("phenomena.json")
+    for name in PHENOMENA:
+        if name == "ambiguous":  # its phrasing is the reference form, chosen in code
+            continue
+        entry = data.get(name)
+        if not isinstance(entry, dict) or not {"seen", "held_out"} <= set(entry):
+            msg = (f"phenomena.json: {name!r} needs 'seen' and 'held_out' phrasings; "
+                   "add both to generators/templates/phenomena.json")
+            raise InvalidArgument(msg)
+        if isinstance(entry["seen"], list) and set(entry["seen"]) & set(entry["held_out"]):
+            msg = f"phenomena.json: {name!r} has a phrasing both seen and held out"
+            raise InvalidArgument(msg)
+    return data

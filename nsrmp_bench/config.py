@@ -6,9 +6,11 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.vocabulary import COLOURS, PHRASINGS, SHAPES
+from nsrmp_bench.vocabulary import COLOURS, PHENOMENA, PHRASINGS, SHAPES
 
-__all__ = ["ALL_PAIRS", "HELD_OUT_MODES", "RELATIONAL_POLICIES", "EpisodeConfig"]
+__all__ = [
+    "ALL_PAIRS", "HELD_OUT_MODES", "PHENOMENON_PHRASINGS", "RELATIONAL_POLICIES", "EpisodeConfig",
+]
 
 ALL_PAIRS: tuple[tuple[str, str], ...] = tuple((s, c) for s in SHAPES for c in COLOURS)
 """Every (shape, colour) combination."""
@@ -21,6 +23,10 @@ references only where attributes alone would do."""
 HELD_OUT_MODES = ("exclude", "require")
 """exclude: in-distribution language only; require: at least one held-out template or
 synonym in every instruction (the language split)."""
+
+PHENOMENON_PHRASINGS = ("seen", "held_out")
+"""seen: the phenomena phrasings of every part; held_out: those kept for the semantics
+split's test part only (``generators/templates/phenomena.json``)."""
 
 
 @dataclass(frozen=True)
@@ -35,8 +41,17 @@ class EpisodeConfig:
     pairs: tuple[tuple[str, str], ...] = ALL_PAIRS
     required_pairs: tuple[tuple[str, str], ...] = ()
     duplicates: int | None = None
+    phenomenon: str = ""
+    phenomenon_phrasing: str = "seen"
 
     def __post_init__(self) -> None:
+        if self.phenomenon and self.phenomenon not in PHENOMENA:
+            msg = f"phenomenon={self.phenomenon!r}; expected one of {list(PHENOMENA)} or ''"
+            raise InvalidArgument(msg)
+        if self.phenomenon_phrasing not in PHENOMENON_PHRASINGS:
+            msg = (f"phenomenon_phrasing={self.phenomenon_phrasing!r}; expected one of "
+                   f"{list(PHENOMENON_PHRASINGS)}")
+            raise InvalidArgument(msg)
         if self.relational not in RELATIONAL_POLICIES:
             msg = f"relational={self.relational!r}; expected one of {list(RELATIONAL_POLICIES)}"
             raise InvalidArgument(msg)
@@ -56,7 +71,7 @@ class EpisodeConfig:
         """Duplicate (shape, colour) objects to force into the scene."""
         if self.duplicates is not None:
             return self.duplicates
-        return 1 if self.relational == "needed" else 0
+        return 1 if self.relational == "needed" or self.phenomenon == "ambiguous" else 0
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able form."""

@@ -19,6 +19,7 @@ from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.plurals import counted
 from nsrmp_bench.scene import Scene, State, state_from_list, state_to_list
+from nsrmp_bench.vocabulary import ABSTAIN_VALUES, PHENOMENA
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -153,8 +154,23 @@ class SymbolicEpisode:
     instruction: Instruction
     states: tuple[State, ...]
     references: tuple[ReferenceLabel, ...] = ()
+    phenomenon: str = ""
+    """The meaning phenomenon the instruction shows (``vocabulary.PHENOMENA``; the
+    semantics split), or "" for an ordinary instruction."""
+    abstain: str = ""
+    """The gold decision when the instruction must not be carried out
+    (``vocabulary.ABSTAIN_VALUES``: "no action" or "not feasible"; the program is then
+    empty), or "" when it must be."""
 
     def __post_init__(self) -> None:
+        if self.phenomenon and self.phenomenon not in PHENOMENA:
+            msg = (f"episode {self.id}: phenomenon {self.phenomenon!r}; expected one of "
+                   f"{list(PHENOMENA)} or ''")
+            raise InvalidArgument(msg)
+        if self.abstain and (self.abstain not in ABSTAIN_VALUES or self.grounded):
+            msg = (f"episode {self.id}: abstain {self.abstain!r} with {len(self.grounded)} "
+                   f"steps; expected one of {list(ABSTAIN_VALUES)} and an empty program")
+            raise InvalidArgument(msg)
         if len(self.states) != len(self.grounded) + 1:
             msg = (
                 f"episode {self.id}: need steps+1 states (initial and after each step), got "
@@ -193,6 +209,8 @@ class SymbolicEpisode:
             # the first step's template: multi-step ids ("T01+T08+...") are in the
             # instruction; breaking down by every combination would leave cells of one
             "template": self.instruction.template_id.split("+")[0],
+            # only semantics episodes carry it: the other splits keep their bytes
+            **({"phenomenon": self.phenomenon} if self.phenomenon else {}),
         }
 
     def to_dict(self) -> dict[str, Any]:
@@ -208,6 +226,8 @@ class SymbolicEpisode:
             "instruction": self.instruction.to_dict(),
             "states": [state_to_list(s) for s in self.states],
             "references": [r.to_dict() for r in self.references],
+            **({"phenomenon": self.phenomenon} if self.phenomenon else {}),
+            **({"abstain": self.abstain} if self.abstain else {}),
         }
 
     @classmethod
@@ -223,6 +243,8 @@ class SymbolicEpisode:
             instruction=Instruction.from_dict(data["instruction"]),
             states=tuple(state_from_list(s) for s in data["states"]),
             references=tuple(ReferenceLabel.from_dict(r) for r in data.get("references", ())),
+            phenomenon=str(data.get("phenomenon", "")),
+            abstain=str(data.get("abstain", "")),
         )
 
     @property

@@ -30,13 +30,20 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from nsrmp_bench.config import ALL_PAIRS, HELD_OUT_MODES, RELATIONAL_POLICIES, EpisodeConfig
+from nsrmp_bench.config import (
+    ALL_PAIRS,
+    HELD_OUT_MODES,
+    PHENOMENON_PHRASINGS,
+    RELATIONAL_POLICIES,
+    EpisodeConfig,
+)
 from nsrmp_bench.errors import InvalidArgument, UnknownId
 from nsrmp_bench.vocabulary import (
     COLOURS,
     MAX_OBJECTS,
     MAX_STEPS,
     MIN_OBJECTS,
+    PHENOMENA,
     PHRASINGS,
     SHAPES,
 )
@@ -78,16 +85,25 @@ class Stratum:
     held_out: str = "exclude"
     pairs: str = "all"  # all | in_distribution (without the spec's held-out pairs)
     required_pairs: str = "none"  # none | held_out (a step must involve a held-out pair)
+    phenomena: tuple[str, ...] = ()
+    """The meaning phenomena of the grid (the semantics split); () for ordinary ones."""
+    phenomenon_phrasing: tuple[str, ...] = ("seen",)
+    """Which phrasings of ``phenomena.json`` the grid uses: seen, held_out (test only)."""
 
-    def cells(self) -> list[tuple[int, int, str, str]]:
-        """The grid's combinations in a fixed order."""
-        return list(itertools.product(self.objects, self.steps, self.relational, self.phrasing))
+    def cells(self) -> list[tuple[int, int, str, str, str, str]]:
+        """The grid's combinations in a fixed order, the phenomenon varying fastest (so
+        any run of consecutive instances is balanced over the phenomena); a grid without
+        phenomena has phenomenon "" and the order it always had."""
+        return list(itertools.product(
+            self.objects, self.steps, self.relational, self.phrasing,
+            self.phenomenon_phrasing, self.phenomena or ("",),
+        ))
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], where: str) -> Stratum:
         """Parse a stratum; unknown keys are an error."""
         known = {"objects", "steps", "relational", "phrasing", "held_out", "pairs",
-                 "required_pairs"}
+                 "required_pairs", "phenomena", "phenomenon_phrasing"}
         extra = set(data) - known
         if extra:
             msg = f"{where}: unknown keys {sorted(extra)}; a stratum has {sorted(known)}"
@@ -101,6 +117,9 @@ class Stratum:
                 held_out=str(data.get("held_out", "exclude")),
                 pairs=str(data.get("pairs", "all")),
                 required_pairs=str(data.get("required_pairs", "none")),
+                phenomena=tuple(str(v) for v in data.get("phenomena", ())),
+                phenomenon_phrasing=tuple(str(v) for v in data.get("phenomenon_phrasing",
+                                                                   ("seen",))),
             )
         except (KeyError, TypeError, ValueError) as exc:
             msg = f"{where}: a stratum needs lists 'objects' and 'steps' of integers ({exc})"
@@ -141,7 +160,7 @@ class PartSpec:
             raise self.missing_secret(split_id)
         return self.entropy
 
-    def cells(self) -> list[tuple[Stratum, tuple[int, int, str, str]]]:
+    def cells(self) -> list[tuple[Stratum, tuple[int, int, str, str, str, str]]]:
         """Every (stratum, cell) in order."""
         return [(s, c) for s in self.strata for c in s.cells()]
 
@@ -181,7 +200,8 @@ class SplitSpec:
             msg = f"{self.id}/{part} has instances 0..{spec.count - 1}, got index {index}"
             raise InvalidArgument(msg)
         cells = spec.cells()
-        stratum, (objects, steps, relational, phrasing) = cells[index % len(cells)]
+        stratum, (objects, steps, relational, phrasing, wording, phenomenon) = cells[
+            index % len(cells)]
         pairs = ALL_PAIRS
         if stratum.pairs == "in_distribution":
             pairs = tuple(p for p in ALL_PAIRS if p not in self.held_out_pairs)
@@ -189,6 +209,7 @@ class SplitSpec:
         return EpisodeConfig(
             objects=objects, steps=steps, relational=relational, phrasing=phrasing,
             held_out=stratum.held_out, pairs=pairs, required_pairs=required,
+            phenomenon=phenomenon, phenomenon_phrasing=wording,
         )
 
     def episode_id(self, part: str, index: int) -> str:
@@ -344,6 +365,15 @@ def _check_stratum(s: Stratum, where: str) -> None:
     if s.held_out not in HELD_OUT_MODES:
         msg = f"{where}.held_out: {s.held_out!r}; expected one of {list(HELD_OUT_MODES)}"
         raise InvalidArgument(msg)
+    for k, v in enumerate(s.phenomena):
+        if v not in PHENOMENA:
+            msg = f"{where}.phenomena[{k}]: {v!r}; expected one of {list(PHENOMENA)}"
+            raise InvalidArgument(msg)
+    for k, v in enumerate(s.phenomenon_phrasing):
+        if v not in PHENOMENON_PHRASINGS:
+            msg = (f"{where}.phenomenon_phrasing[{k}]: {v!r}; expected one of "
+                   f"{list(PHENOMENON_PHRASINGS)}")
+            raise InvalidArgument(msg)
 
 
 def _parse(data: Mapping[str, Any], where: str, *, source: str | None) -> SplitSpec:

@@ -11,13 +11,17 @@ from dataclasses import dataclass
 from typing import Final
 
 __all__ = [
+    "ABSTAIN_VALUES",
     "ACTIONS",
     "COLOURS",
     "COLOUR_RGBA",
     "EXTENTS",
+    "EXTREME_MARGIN",
     "MAX_OBJECTS",
     "MAX_STEPS",
     "MIN_OBJECTS",
+    "ORDINALS",
+    "PHENOMENA",
     "PHRASINGS",
     "PLACEMENT_MARGIN",
     "RELATIONS",
@@ -67,6 +71,23 @@ RELATION_AXES: Final[dict[str, tuple[float, float, float]]] = {
 }
 RELATION_THRESHOLD: Final = 0.075
 """Object j is R of object i iff (p_j - p_i) . axis(R) > RELATION_THRESHOLD (the original's)."""
+
+EXTREME_MARGIN: Final = 0.04
+"""A superlative (``extreme``) names the k-th object towards a side only when it is more
+than this far (metres, along that side's axis) from the objects ranked next to it."""
+
+ORDINALS: Final = ("1", "2", "3", "4", "5", "6", "7")
+"""The ranks ``extreme`` takes: 1 is the most (the leftmost), 2 the second from that side."""
+
+PHENOMENA: Final = (
+    "negation", "prohibition", "question", "absent", "ambiguous", "two_sentence",
+    "ellipsis", "correction", "superlative",
+)
+"""The meaning phenomena of the semantics split (``docs/semantics.md``)."""
+
+ABSTAIN_VALUES: Final = ("no action", "not feasible")
+"""Why an instruction must not be carried out: it asks for nothing (a prohibition, a
+question, a remark), or it cannot be (a referent the scene lacks or cannot tell apart)."""
 
 PLACEMENT_MARGIN: Final = 0.03
 """Gap between the footprints of a moved object and its reference for left/right moves."""

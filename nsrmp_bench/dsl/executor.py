@@ -16,7 +16,7 @@ from typing import Any
 
 from nsrmp_bench.dsl.actions import apply_step
 from nsrmp_bench.dsl.program import GroundedStep, Node, Program
-from nsrmp_bench.dsl.relations import related
+from nsrmp_bench.dsl.relations import ranked, related
 from nsrmp_bench.errors import AmbiguousReference, InfeasibleStep, InvalidReference
 from nsrmp_bench.scene import Scene, State
 
@@ -94,6 +94,16 @@ def _unique(ctx: _Context, node: Node, index: int, state: State) -> int:
     raise AmbiguousReference(msg)
 
 
+def _extreme(ctx: _Context, node: Node, index: int, state: State) -> int:
+    members: frozenset[int] = ctx.eval(node.inputs[0], state)
+    try:
+        return ranked(state, members, node.params[0], int(node.params[1]))
+    except (InvalidReference, AmbiguousReference) as exc:
+        where = f"step {ctx.step + 1}, node {index}: {ctx.program.text(index)}"
+        msg = (f"{where}: {exc}; name the object by its attributes or a relation instead")
+        raise type(exc)(msg) from exc
+
+
 def _idle(ctx: _Context, node: Node, index: int, state: State) -> Execution:
     return Execution((ctx.initial,), ())
 
@@ -118,6 +128,7 @@ HANDLERS: dict[str, Handler] = {
     "filter": _filter,
     "relate": _relate,
     "unique": _unique,
+    "extreme": _extreme,
     "idle": _idle,
     "move": _move,
 }

@@ -15,7 +15,7 @@ from importlib import resources
 from typing import Any
 
 from nsrmp_bench.errors import BadProgram
-from nsrmp_bench.vocabulary import ACTIONS, COLOURS, RELATIONS, SHAPES
+from nsrmp_bench.vocabulary import ACTIONS, COLOURS, ORDINALS, RELATIONS, SHAPES
 
 __all__ = [
     "GroundedStep",
@@ -37,6 +37,7 @@ _PARAM_VALUES: dict[str, tuple[str, ...]] = {
     "concept": (*COLOURS, *SHAPES),
     "relation": RELATIONS,
     "action": ACTIONS,
+    "ordinal": ORDINALS,
 }
 
 

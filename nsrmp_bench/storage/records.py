@@ -19,7 +19,8 @@ from nsrmp_bench.storage.layout import RECORD_SUFFIX
 
 __all__ = ["CATEGORY_KEYS", "EpisodeEntry", "ShardRecord", "atomic_write_text", "fsync_dir"]
 
-CATEGORY_KEYS = ("steps", "objects", "relational", "relation_needed", "phrasing", "template")
+CATEGORY_KEYS = ("steps", "objects", "relational", "relation_needed", "phrasing", "template",
+                 "phenomenon")
 """The category columns of an episode (``SymbolicEpisode.categories()``)."""
 
 
