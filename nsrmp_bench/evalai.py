@@ -42,7 +42,7 @@ from nsrmp_bench.errors import InvalidArgument, SubmissionError
 from nsrmp_bench.leaderboard import COLUMNS
 from nsrmp_bench.release import pack
 from nsrmp_bench.scoring.check import check_submission
-from nsrmp_bench.scoring.metrics import METRICS
+from nsrmp_bench.scoring.metrics import METRICS_V2
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
 from nsrmp_bench.storage.manifest import MANIFEST_NAME, Manifest, read_manifest
@@ -62,7 +62,7 @@ PUBLIC_PHASE = "public-test"
 PRIVATE_PHASE = "private-test"
 PHASES_FILE = "phases.json"
 _SPLIT_CODENAMES = {PUBLIC_PHASE: "public_test", PRIVATE_PHASE: "private_test"}
-_LABELS = {m.name: m.label for m in METRICS}
+_LABELS = {m.name: m.label for m in METRICS_V2}
 _HIGHER_IS_BETTER = True  # every leaderboard column is a score, IoU-M first
 
 
@@ -224,7 +224,8 @@ def evaluate_phase(test_annotation_file: str | os.PathLike[str],
                    user_submission_file: str | os.PathLike[str], phase_codename: str,
                    phases: Mapping[str, Any]) -> dict[str, Any]:
     """EvalAI's result object for one submission: ``{"result": [{split: figures}],
-    "submission_result": figures}`` with :func:`figures` of the public scorer's result.
+    "submission_result": figures, "submission_metadata": {"scorer": ...}}`` with
+    :func:`figures` of the public scorer's result and the scorer that made them.
 
     ``phases`` is the bundle's ``phases.json``. A submission the checks refuse (another
     split, another manifest, malformed lines) raises :class:`SubmissionError` naming the
@@ -251,7 +252,7 @@ def evaluate_phase(test_annotation_file: str | os.PathLike[str],
     result = score(submission, gold)  # the defaults of `nsrmp-bench score`
     numbers = figures(result)
     return {"result": [{str(phase["split_codename"]): numbers}],
-            "submission_result": numbers}
+            "submission_result": numbers, "submission_metadata": {"scorer": result.scorer}}
 
 
 def _yaml(data: object) -> str:

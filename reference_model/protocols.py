@@ -13,7 +13,7 @@ from typing import Any
 
 from nsrmp_bench.errors import UnknownId
 from nsrmp_bench.scoring.protocol_fields import GOLD_BOXES, ProtocolFields, detected_boxes
-from nsrmp_bench.scoring.version import SCORER_ID
+from nsrmp_bench.scoring.version import WRITTEN_SCORER_ID
 
 __all__ = ["shipped_protocol"]
 
@@ -51,6 +51,6 @@ def shipped_protocol(model_id: str, manifest_root_hash: str, *, detector: str | 
     return ProtocolFields(
         supervision=supervision,
         boxes=GOLD_BOXES if detector is None else detected_boxes(detector),
-        training_parts=tuple(parts), seeds=tuple(sorted(seeds)), scorer=SCORER_ID,
+        training_parts=tuple(parts), seeds=tuple(sorted(seeds)), scorer=WRITTEN_SCORER_ID,
         manifest_root_hash=manifest_root_hash,
     )

@@ -25,7 +25,7 @@ from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.predictors import Kind, register_predictor
 from nsrmp_bench.scoring.protocol_fields import GOLD_BOXES, ProtocolFields
 from nsrmp_bench.scoring.submission import Prediction, SubmissionHeader, write_submission
-from nsrmp_bench.scoring.version import SCORER_ID
+from nsrmp_bench.scoring.version import WRITTEN_SCORER_ID
 from nsrmp_bench.versioned_ids import resolve_id
 
 __all__ = ["BASELINES", "Baseline", "get_baseline", "predict", "run_baseline"]
@@ -61,7 +61,7 @@ class Baseline:
         """Its protocol fields on the part with root hash ``manifest_root_hash``."""
         return ProtocolFields(
             supervision=self.supervision, boxes=GOLD_BOXES, training_parts=(),
-            seeds=(seed,) if self.seeded else (), scorer=SCORER_ID,
+            seeds=(seed,) if self.seeded else (), scorer=WRITTEN_SCORER_ID,
             manifest_root_hash=manifest_root_hash,
         )
 

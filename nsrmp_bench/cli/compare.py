@@ -4,8 +4,9 @@ Example::
 
     nsrmp-bench compare model.jsonl noop.jsonl --data data/smoke/test --json diff.json
 
-For every metric: A, B, the mean difference A - B over the same instances with a paired
-bootstrap interval, and the p-value of a two-sided paired sign-flip permutation test.
+For every metric of ``--scorer`` (default ``scorer-v2``): A, B, the mean difference A - B
+over the same instances with a paired bootstrap interval, and the p-value of a two-sided
+paired sign-flip permutation test.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
     result = compare(
         args.a, args.b, args.data, seed=args.seed, n_boot=args.n_boot, n_perm=args.n_perm,
         level=args.level, split=args.split,
-        unknown_ids="warn" if args.allow_unknown_ids else "error",
+        unknown_ids="warn" if args.allow_unknown_ids else "error", scorer=args.scorer,
     )
     if not args.quiet:
         result.render()

@@ -4,11 +4,12 @@ Example::
 
     nsrmp-bench score predictions.jsonl --data data/smoke/test --json scores.json
 
-Prints the figures (IoU-M first, with 95% bootstrap intervals and instance counts), IoU-M
-after each step, and the breakdown by steps, objects, relational and phrasing
-(``--breakdown all`` adds the rest: relation needed, template); ``--json`` writes all of
-it. A malformed file is refused with every problem listed by line. ``--data`` may be the
-split root ``generate --out`` wrote: the part the header names is read.
+Prints the figures of ``--scorer`` (default ``scorer-v2``; IoU-M first, with 95%
+bootstrap intervals and instance counts), IoU-M after each step, and the breakdown by
+steps, objects, relational and phrasing (``--breakdown all`` adds the rest: relation
+needed, template); ``--json`` writes all of it. A malformed file is refused with every
+problem listed by line. ``--data`` may be the split root ``generate --out`` wrote: the
+part the header names is read.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from nsrmp_bench.cli.numbers import non_negative_int
 from nsrmp_bench.errors import SubmissionError
 from nsrmp_bench.scoring.result import BREAKDOWNS
 from nsrmp_bench.scoring.scorer import DEFAULT_N_BOOT, DEFAULT_SEED, score
+from nsrmp_bench.scoring.version import KNOWN_SCORERS, SCORER_ID
 from nsrmp_bench.storage.atomic import atomic_path, output_file
 
 __all__ = ["add_arguments", "run"]
@@ -41,6 +43,11 @@ def add_common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--allow-unknown-ids", action="store_true",
                         help="ignore (and count) lines whose id is not in the split instead "
                              "of refusing the file")
+    parser.add_argument("--scorer", choices=KNOWN_SCORERS, default=SCORER_ID,
+                        help=f"the figures to report (default {SCORER_ID}: scorer-v1's, with "
+                             "the same values, plus strict success, kept still and "
+                             "abstention); a file written for either scorer is scored by "
+                             "either")
     parser.add_argument("--json", type=output_file, default=None, help="write the figures as JSON")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
@@ -69,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
         args.predictions, args.data, seed=args.seed, n_boot=args.n_boot, level=args.level,
         breakdown=not args.no_breakdown,
         breakdown_intervals=not args.no_breakdown_intervals, split=args.split,
-        unknown_ids="warn" if args.allow_unknown_ids else "error",
+        unknown_ids="warn" if args.allow_unknown_ids else "error", scorer=args.scorer,
     )
     if not result.counts.get("predicted", 0):
         msg = (f"{args.predictions}: not one instance of {result.split or 'the data'} is "

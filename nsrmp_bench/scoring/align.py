@@ -75,6 +75,14 @@ class PredictionTable:
     counts: dict[str, int] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     object_matched: B | None = None  # (O,) False: a gold object no detection matched
+    abstain: NDArray[np.int8] | None = None  # (I,) 0 none, 1 no action, 2 not feasible
+
+    @property
+    def abstain_codes(self) -> NDArray[np.int8]:
+        """(I,) each instance's abstain code (``ABSTAIN_CODES``; 0 where none or missing)."""
+        if self.abstain is None:
+            return np.zeros(len(self.present), dtype=np.int8)
+        return self.abstain
 
     @property
     def n_program_steps(self) -> I64:
@@ -338,6 +346,8 @@ def lay_out(m: Matching, checked: CheckedRecords, warnings: list[str]) -> Predic
     pick_g[g_of] = checked.pick[recs]
     place_g = np.full((n_inst, 2), np.nan)
     place_g[g_of] = checked.place[recs]
+    abstain_g = np.zeros(n_inst, dtype=np.int8)
+    abstain_g[g_of] = sub.abstain_codes[recs]
 
     counts = {
         "instances": n_inst,
@@ -353,6 +363,8 @@ def lay_out(m: Matching, checked: CheckedRecords, warnings: list[str]) -> Predic
         "with_pick": int((present & ~np.isnan(pick_g[:, 0])).sum()),
         "with_place": int((present & ~np.isnan(place_g[:, 0])).sum()),
     }
+    if abstain_g.any():  # counted only where used: a file without abstain reads as before
+        counts["abstained"] = int((abstain_g > 0).sum())
     if counts["missing"]:
         warnings.append(
             f"{counts['missing']} of {n_inst} instances have no prediction; they score zero "
@@ -378,6 +390,7 @@ def lay_out(m: Matching, checked: CheckedRecords, warnings: list[str]) -> Predic
         counts=counts,
         warnings=tuple(warnings),
         object_matched=object_matched,
+        abstain=abstain_g,
     )
 
 

@@ -197,13 +197,20 @@ def bootstrap_intervals(
     NaN entries are "not defined for this instance" and take no part. ``groupings`` are
     ``(codes, n_groups)`` pairs: codes ``(n,)`` in ``0..n_groups-1`` assign each instance to
     a group, and each group's means (and, with ``group_intervals``, intervals from the
-    same resamples) are returned too. ``n_boot=0`` gives NaN interval ends.
+    same resamples) are returned too. ``n_boot=0`` gives NaN interval ends. A column
+    defined on no instance (e.g. abstention on data where no gold abstains) takes no part
+    in the resampling: its mean and interval ends are NaN, its counts 0.
     """
     _check(n_boot, level)
     v = np.asarray(values, dtype=np.float64)
     if v.ndim != 2:
         msg = f"values must be a 2-D array (instances, metrics), got shape {v.shape}"
         raise InvalidArgument(msg)
+    defined: NDArray[np.bool_] = np.asarray(~np.isnan(v).all(axis=0), dtype=bool)
+    if len(v) and not defined.all():
+        return _expand(bootstrap_intervals(v[:, defined], rng, n_boot=n_boot, level=level,
+                                           groupings=groupings,
+                                           group_intervals=group_intervals), defined)
     n, k = v.shape
     mask = ~np.isnan(v)
     # One weight column per distinct mask (most metrics are defined on every instance).
@@ -269,6 +276,25 @@ def bootstrap_intervals(
             final_groups.append(GroupIntervals(gi.mean, glow, ghigh, gi.n))
         group_out = final_groups
     return Intervals(mean, low, high, count), group_out
+
+
+def _expand(out: tuple[Intervals, list[GroupIntervals]], defined: NDArray[np.bool_],
+            ) -> tuple[Intervals, list[GroupIntervals]]:
+    """Results for the ``defined`` columns laid out over every column (NaN, count 0)."""
+    def wide(a: F64) -> F64:
+        full: F64 = np.full((*a.shape[:-1], len(defined)), np.nan)
+        full[..., defined] = a
+        return full
+
+    def count(a: I64) -> I64:
+        full: I64 = np.zeros((*a.shape[:-1], len(defined)), dtype=np.int64)
+        full[..., defined] = a
+        return full
+
+    iv, groups = out
+    return (Intervals(wide(iv.mean), wide(iv.low), wide(iv.high), count(iv.n)),
+            [GroupIntervals(wide(g.mean), wide(g.low), wide(g.high), count(g.n))
+             for g in groups])
 
 
 def sign_flip_pvalues(

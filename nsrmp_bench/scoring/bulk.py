@@ -30,7 +30,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nsrmp_bench.scoring.ragged import offsets_from_lengths
-from nsrmp_bench.scoring.submission import PARQUET_COLUMNS, Submission, SubmissionHeader
+from nsrmp_bench.scoring.submission import (
+    ABSTAIN_CODES,
+    PARQUET_COLUMNS,
+    Submission,
+    SubmissionHeader,
+)
 from nsrmp_bench.scoring.validate import SubmissionParser
 from nsrmp_bench.vocabulary import ACTIONS
 
@@ -63,6 +68,7 @@ class _Line(msgspec.Struct, forbid_unknown_fields=True):
     place: msgspec.Raw = _NULL
     positions: msgspec.Raw = _NULL
     detections: msgspec.Raw = _NULL
+    abstain: str | None = None
 
 
 _DECODER = msgspec.json.Decoder(_Line)
@@ -71,6 +77,9 @@ _ID, _BOXES, _PROGRAM, _STEP_BOXES = (attrgetter(f) for f in ("id", "boxes", "pr
                                                               "step_boxes"))
 _PICK, _PLACE, _POSITIONS, _DETECTIONS = (attrgetter(f) for f in ("pick", "place",
                                                                   "positions", "detections"))
+_ABSTAIN = attrgetter("abstain")
+_ABSTAIN_CODE: dict[str | None, int] = {None: 0}
+_ABSTAIN_CODE.update(ABSTAIN_CODES)
 
 
 class _Unusual(Exception):
@@ -143,11 +152,23 @@ def _read_jsonl(source: str, data: bytes) -> Submission:
                            count=len(lines))
     steps = list(chain.from_iterable(filter(None, programs)))
     actions, subjects, references = zip(*steps, strict=True) if steps else ((), (), ())
+    abstain = _abstain_codes(list(map(_ABSTAIN, lines)))
     return _submission(
         header, source, ids, np.arange(2, len(lines) + 2, dtype=np.int64), nobj, boxes,
         has_sb, nstates, step_boxes, has_prog, prog_len, actions, subjects, references,
-        pick, place, has_pos, positions, "line",
+        pick, place, has_pos, positions, "line", abstain,
     )
+
+
+def _abstain_codes(values: list[str | None]) -> NDArray[np.int8]:
+    """Each line's abstain code (0 where none); an unknown value is :class:`_Unusual`."""
+    if values.count(None) == len(values):
+        return np.zeros(len(values), dtype=np.int8)
+    codes = np.fromiter(map(_ABSTAIN_CODE.get, values, repeat(-1)), dtype=np.int64,
+                        count=len(values))
+    if (codes < 0).any():
+        raise _Unusual
+    return codes.astype(np.int8)
 
 
 def _present(raws: list[msgspec.Raw]) -> tuple[NDArray[np.bool_], list[msgspec.Raw]]:
@@ -163,11 +184,17 @@ def _submission(
     boxes: F64, has_sb: NDArray[np.bool_], nstates: I64, step_boxes: F64,
     has_prog: NDArray[np.bool_], prog_len: I64, actions: Sequence[str],
     subjects: Sequence[int] | I64, references: Sequence[int] | I64, pick: F64, place: F64,
-    has_pos: NDArray[np.bool_], positions: F64, label: str,
+    has_pos: NDArray[np.bool_], positions: F64, label: str, abstain: NDArray[np.int8],
 ) -> Submission:
     """The checked table, as :meth:`SubmissionParser.finish` builds it."""
     if len(set(ids)) != len(ids) or not all(ids):
         raise _Unusual
+    abstained = abstain > 0
+    if abstained.any() and (
+        (prog_len[abstained] > 0).any() or has_sb[abstained].any()
+        or not np.isnan(pick[abstained]).all() or not np.isnan(place[abstained]).all()
+    ):
+        raise _Unusual  # an abstention that acts: the line-by-line parser names the line
     for arr in (boxes, step_boxes):
         if (arr[:, 2] < arr[:, 0]).any() or (arr[:, 3] < arr[:, 1]).any():
             raise _Unusual
@@ -204,6 +231,7 @@ def _submission(
         has_positions=has_pos,
         positions=positions,
         line_label=label,
+        abstain=abstain,
     )
 
 
@@ -419,8 +447,14 @@ def _read_parquet(source: str, table: pyarrow.Table, header: SubmissionHeader) -
         actions = act.to_pylist()
         subjects = np.asarray(sub.to_numpy(), dtype=np.int64)
         references = np.asarray(ref.to_numpy(), dtype=np.int64)
+    abstain = np.zeros(n, dtype=np.int8)
+    abst = cols.get("abstain")
+    if abst is not None and abst.null_count != n:
+        if not pa.types.is_string(abst.type):
+            raise _Unusual
+        abstain = _abstain_codes(abst.to_pylist())
     return _submission(
         header, source, ids, np.arange(1, n + 1, dtype=np.int64), nobj, boxes, has_sb,
         nstates, step_boxes, has_prog, prog_len, actions, subjects, references, points[0],
-        points[1], has_pos, positions, "row",
+        points[1], has_pos, positions, "row", abstain,
     )

@@ -23,7 +23,7 @@ from nsrmp_bench.scoring.bootstrap import (
     sign_flip_pvalues,
 )
 from nsrmp_bench.scoring.gold import load_gold
-from nsrmp_bench.scoring.metrics import METRICS
+from nsrmp_bench.scoring.metrics import METRICS_V2
 from nsrmp_bench.scoring.result import json_ready
 from nsrmp_bench.scoring.scorer import (
     DEFAULT_N_BOOT,
@@ -34,7 +34,7 @@ from nsrmp_bench.scoring.scorer import (
     prepare,
     read_predictions,
 )
-from nsrmp_bench.scoring.version import SCORER_ID
+from nsrmp_bench.scoring.version import SCORER_ID, check_scorer
 from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.split_root import part_of_split
 
@@ -128,12 +128,15 @@ def compare(
     level: float = 0.95,
     unknown_ids: str = "error",
     split: str | None = None,
+    scorer: str = SCORER_ID,
 ) -> Comparison:
-    """Paired differences of every metric between submissions ``a`` and ``b`` on ``data``."""
+    """Paired differences of every metric of ``scorer`` between submissions ``a`` and ``b``
+    on ``data``."""
+    check_scorer(scorer)
     read_a, read_b = read_predictions(a), read_predictions(b)
     gold = load_gold(data, split=split, part=part_of_split(read_a[0].header.split))
-    table_a, frame_a, _ = prepare(read_a, gold, unknown_ids=unknown_ids)
-    table_b, frame_b, _ = prepare(read_b, gold, unknown_ids=unknown_ids)
+    table_a, frame_a, _ = prepare(read_a, gold, unknown_ids=unknown_ids, scorer=scorer)
+    table_b, frame_b, _ = prepare(read_b, gold, unknown_ids=unknown_ids, scorer=scorer)
     cols = [c for c in metric_columns(gold, frame_a) if c in frame_b.columns]
     va = frame_a[cols].to_numpy(dtype=np.float64)
     vb = frame_b[cols].to_numpy(dtype=np.float64)
@@ -142,7 +145,7 @@ def compare(
     intervals, _ = bootstrap_intervals(diff, rng, n_boot=n_boot, level=level)
     p_values = sign_flip_pvalues(diff, rng, n_perm=n_perm)
     both = ~np.isnan(diff)
-    labels = {m.name: m.label for m in METRICS}
+    labels = {m.name: m.label for m in METRICS_V2}
     rows = []
     for i, c in enumerate(cols):
         sel = both[:, i]
@@ -162,7 +165,7 @@ def compare(
         f"B: {w}" for w in table_b.warnings
     )
     return Comparison(
-        scorer=SCORER_ID,
+        scorer=scorer,
         split=gold.split or table_a.header.split,
         a=table_a.header.model or table_a.source,
         b=table_b.header.model or table_b.source,

@@ -6,6 +6,11 @@ over all instances with ``obj_offsets``; per-step arrays are flat over all gold 
 ``step_offsets``; per-step boxes are flat over (instance, state after step k, object) with
 ``stepbox_offsets``. See :mod:`nsrmp_bench.scoring.ragged`.
 
+Gold abstention (``abstain``: ``"no action"``, ``"not feasible"``, or none) is read per
+instance from the episode's optional ``abstain`` attribute (None or ``""``: none; data
+made before it existed has none), coded as a prediction's (``ABSTAIN_CODES``). An
+episode's optional ``phenomenon`` becomes a breakdown category where some episode has one.
+
 Gold boxes are the amodal boxes of the episode's rendering (``targets.boxes_amodal``), or,
 for a symbolic-only episode, the projection of its symbolic states through the official
 camera. Gold 3D positions are object centres in the final state.
@@ -27,6 +32,7 @@ from nsrmp_bench.episode import Episode, SymbolicEpisode
 from nsrmp_bench.episode_views import episode_boxes, episode_camera, episode_positions
 from nsrmp_bench.errors import DataIntegrityError, InvalidArgument
 from nsrmp_bench.scoring.ragged import offsets_from_lengths, positions_in_rows, row_ids
+from nsrmp_bench.scoring.submission import ABSTAIN_CODES
 from nsrmp_bench.vocabulary import ACTIONS
 
 __all__ = ["CATEGORY_COLUMNS", "GoldTable", "load_episodes", "load_gold"]
@@ -84,6 +90,14 @@ class GoldTable:
     categories: pd.DataFrame  # index: ids; columns CATEGORY_COLUMNS (and any others)
     source: str = ""
     index: dict[str, int] = field(default_factory=dict)
+    abstain: NDArray[np.int8] | None = None  # (I,) gold abstain code; None: none anywhere
+
+    @property
+    def abstain_codes(self) -> NDArray[np.int8]:
+        """(I,) the gold abstain code of each instance (0: the instruction is carried out)."""
+        if self.abstain is None:
+            return np.zeros(len(self.ids), dtype=np.int8)
+        return self.abstain
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -123,12 +137,15 @@ class GoldTable:
         categories: pd.DataFrame | None = None,
         split: str | None = None,
         source: str = "",
+        abstain: Sequence[str | None] | NDArray[Any] | None = None,
     ) -> GoldTable:
         """Check the arrays' shapes and derive offsets, moved masks and per-step masks.
 
         ``actions`` are action names or indices into ``ACTIONS``; ``subjects`` and
         ``references`` are object indices within their instance; ``step_boxes`` holds the
-        boxes after each step, (instance, step, object) order.
+        boxes after each step, (instance, step, object) order. ``abstain`` is each
+        instance's gold abstention: a value of ``ABSTAIN_VALUES`` or None / ``""`` (or
+        its code, an integer array); None: no instance abstains.
         """
         ids_t = tuple(str(i) for i in ids)
         n_inst = len(ids_t)
@@ -224,6 +241,7 @@ class GoldTable:
                 raise InvalidArgument(msg)
             cats = categories.copy()
             cats.index = pd.Index(ids_t, name="id")
+        abst = _abstain_codes(abstain, n_inst)
         return cls(
             ids=ids_t,
             split=split,
@@ -249,6 +267,7 @@ class GoldTable:
             categories=cats,
             source=source,
             index=index,
+            abstain=abst,
         )
 
     @classmethod
@@ -270,6 +289,8 @@ class GoldTable:
         sboxes: list[F64] = []
         sizes: list[tuple[int, int]] = []
         cats: list[dict[str, Any]] = []
+        abstain: list[str | None] = []
+        phenomena: list[str | None] = []
         lookup = {a: i for i, a in enumerate(ACTIONS)}
         for item in episodes:
             ep = item if isinstance(item, Episode) else Episode(item)
@@ -294,6 +315,8 @@ class GoldTable:
             steps.extend((lookup[g.action], g.subject, g.reference) for g in sym.grounded)
             sizes.append((cam.width, cam.height))
             cats.append(sym.categories())
+            abstain.append(_optional_text(sym, ep, "abstain"))
+            phenomena.append(_optional_text(sym, ep, "phenomenon"))
         st = np.array(steps, dtype=np.int64).reshape(-1, 3)
         empty4 = np.zeros((0, 4))
         return cls.build(
@@ -308,10 +331,56 @@ class GoldTable:
             references=st[:, 2],
             step_boxes=np.concatenate(sboxes) if sboxes else empty4,
             image_size=np.array(sizes, dtype=np.int64).reshape(-1, 2),
-            categories=pd.DataFrame(cats, columns=list(CATEGORY_COLUMNS)),
+            categories=_category_frame(cats, phenomena),
             split=split,
             source=source,
+            abstain=abstain if any(abstain) else None,
         )
+
+
+def _optional_text(sym: object, ep: object, name: str) -> str | None:
+    """An episode's optional text attribute (on the symbolic episode or the episode);
+    None where absent or empty."""
+    for owner in (sym, ep):
+        value = getattr(owner, name, None)
+        if value:
+            return str(value)
+    return None
+
+
+def _category_frame(cats: list[dict[str, Any]], phenomena: list[str | None]) -> pd.DataFrame:
+    """The categories of every instance: :data:`CATEGORY_COLUMNS`, any further category
+    the episodes report, and ``phenomenon`` where some episode has one."""
+    columns = list(CATEGORY_COLUMNS)
+    others = set().union(*cats) - {*columns, "phenomenon"} if cats else set()
+    columns += sorted(others)
+    frame = pd.DataFrame(cats, columns=columns)
+    if any(phenomena):  # the semantics split's: an ordinary instruction is "none"
+        frame["phenomenon"] = [p or "none" for p in phenomena]
+    return frame
+
+
+def _abstain_codes(abstain: Sequence[str | None] | NDArray[Any] | None,
+                   n: int) -> NDArray[np.int8] | None:
+    """Gold abstain values (or codes) as codes, checked; None for none at all."""
+    if abstain is None:
+        return None
+    if isinstance(abstain, np.ndarray) and abstain.dtype.kind in "iu":
+        codes = abstain.astype(np.int8)
+    else:
+        try:
+            codes = np.array([ABSTAIN_CODES[str(v)] if v else 0 for v in abstain], dtype=np.int8)
+        except KeyError as exc:
+            msg = (f"gold abstain {exc.args[0]!r} is not one of {list(ABSTAIN_CODES)} "
+                   "(or empty for an instruction that is carried out)")
+            raise DataIntegrityError(msg) from exc
+    if codes.shape != (n,):
+        msg = f"gold abstain needs one value per instance ({n}), got shape {codes.shape}"
+        raise InvalidArgument(msg)
+    if n and (codes.min() < 0 or codes.max() > len(ABSTAIN_CODES)):
+        msg = f"gold abstain codes must lie in 0..{len(ABSTAIN_CODES)}"
+        raise InvalidArgument(msg)
+    return codes
 
 
 def _split_of(collection: object) -> str | None:

@@ -1,6 +1,9 @@
-"""The metrics of ``scorer-v1``: per-instance values, vectorised over a whole split.
+"""The metrics of ``scorer-v1`` and ``scorer-v2``: per-instance values, vectorised over a
+whole split.
 
-Definitions (``nsrmp_bench/scoring/metrics.py`` is their reference; ``SCORING.md`` repeats them):
+``scorer-v2`` reports every figure of ``scorer-v1``, with the same value, and three more
+(below, after the ``scorer-v1`` ones). Definitions (``nsrmp_bench/scoring/metrics.py`` is
+their reference; ``SCORING.md`` repeats them):
 
 * **IoU**: mean over all objects of IoU(predicted final amodal box, gold final amodal box),
   objects matched by index (episode order). Per instance, then averaged over instances.
@@ -28,6 +31,22 @@ Definitions (``nsrmp_bench/scoring/metrics.py`` is their reference; ``SCORING.md
   state after step k, mean IoU over the objects moved by steps 1..k, for instances with at
   least k steps; at k = S it is IoU-M computed from ``step_boxes``.
 
+``scorer-v2`` adds:
+
+* **Kept still** (``kept_still``): an object the gold leaves in place (not moved by any gold
+  step) is *kept still* when its predicted final box has IoU >= 0.5 with its gold final box
+  and, on lines that give ``positions``, its predicted centre lies within 2 cm of gold (the
+  same tests as success). Per instance: the share of the objects the gold leaves in place
+  that are kept still; NaN where the gold moves every object.
+* **Strict success** (``success_strict``): success, and every object the gold leaves in
+  place kept still. Defined for every instance: where the gold moves nothing, success holds
+  vacuously and strict success is "every object kept still".
+* **Abstention** (``abstention``): defined where the gold's ``abstain`` is set (``"no
+  action"`` or ``"not feasible"``). The prediction's decision is its ``abstain`` value if
+  it gives one; else ``"no action"`` if it moves nothing (its program is ``[]``, or it has
+  no program and every object is kept still, tested as above against the gold final
+  boxes); else "act". 1 iff the decision equals the gold's ``abstain``.
+
 A missing instance scores 0 on every metric defined for it. NaN means "not defined for this
 instance" (IoU-M with no moved object, identification on a two-step instance, per-step
 IoU-M beyond the instance's steps) and takes no part in means or intervals.
@@ -46,13 +65,19 @@ from nsrmp_bench.geometry.boxes import box_centres, box_iou, points_in_boxes
 from nsrmp_bench.scoring.align import PredictionTable
 from nsrmp_bench.scoring.gold import GoldTable
 from nsrmp_bench.scoring.ragged import positions_in_rows
+from nsrmp_bench.scoring.submission import ABSTAIN_CODES
+from nsrmp_bench.scoring.version import SCORER_ID, SCORER_V1, check_scorer
 
 __all__ = [
     "METRICS",
+    "METRICS_V2",
     "SUCCESS_DISTANCE_M",
     "SUCCESS_IOU",
+    "V2_METRICS",
     "MetricSpec",
     "instance_scores",
+    "metric_spec",
+    "metrics_of",
     "step_metric_name",
 ]
 
@@ -110,6 +135,42 @@ METRICS: tuple[MetricSpec, ...] = (
 )
 """The instance-level figures of ``scorer-v1``, headline first (per-step IoU-M aside)."""
 
+V2_METRICS: tuple[MetricSpec, ...] = (
+    MetricSpec("success_strict", "strict success",
+               "success, and every object the gold leaves in place kept still (defined for "
+               "every instance)"),
+    MetricSpec("kept_still", "kept still",
+               f"share of the objects the gold leaves in place whose final box keeps IoU >= "
+               f"{SUCCESS_IOU} (and centre within {SUCCESS_DISTANCE_M * 100:g} cm where "
+               "positions are given)"),
+    MetricSpec("abstention", "abstention",
+               "where the gold abstains: the prediction's decision (its abstain; else 'no "
+               "action' if it moves nothing; else act) equals the gold's"),
+)
+"""The figures ``scorer-v2`` adds to ``scorer-v1``'s."""
+
+_V2_ORDER = ("iou_m", "iou", "success", "success_strict", "kept_still")
+METRICS_V2: tuple[MetricSpec, ...] = (
+    *(m for name in _V2_ORDER for m in (*METRICS, *V2_METRICS) if m.name == name),
+    *(m for m in METRICS if m.name not in _V2_ORDER),
+    *(m for m in V2_METRICS if m.name not in _V2_ORDER),
+)
+"""The figures of ``scorer-v2`` in report order: strict success and kept still beside
+success, abstention last."""
+
+
+def metrics_of(scorer: str = SCORER_ID) -> tuple[MetricSpec, ...]:
+    """The instance-level figures a scorer reports, in report order."""
+    return METRICS if check_scorer(scorer) == SCORER_V1 else METRICS_V2
+
+
+def metric_spec(name: str) -> MetricSpec | None:
+    """The spec of a figure of any scorer, or None (per-step IoU-M)."""
+    return _ALL_SPECS.get(name)
+
+
+_ALL_SPECS = {m.name: m for m in METRICS_V2}
+
 
 def step_metric_name(k: int) -> str:
     """The column name of per-step IoU-M after step ``k`` (1-based)."""
@@ -127,12 +188,15 @@ def _safe_div(num: NDArray[Any], den: NDArray[Any]) -> F64:
     return out
 
 
-def instance_scores(gold: GoldTable, pred: PredictionTable) -> tuple[pd.DataFrame, dict[str, int]]:
-    """Per-instance values of every metric (index: instance id) and source counts.
+def instance_scores(gold: GoldTable, pred: PredictionTable, *, scorer: str = SCORER_ID,
+                    ) -> tuple[pd.DataFrame, dict[str, int]]:
+    """Per-instance values of every metric of ``scorer`` (index: instance id) and source
+    counts.
 
     The frame also holds ``present`` and the gold categories; the counts say how the pick
     and place locations were obtained.
     """
+    v2 = check_scorer(scorer) != SCORER_V1
     n = gold.n_instances
     present = pred.present
     obj_inst = gold.obj_instance
@@ -154,6 +218,14 @@ def instance_scores(gold: GoldTable, pred: PredictionTable) -> tuple[pd.DataFram
     fail_3d = _per_instance(obj_inst, gold.moved & ~near, n)
     success_3d_inst = present & pred.has_positions & (fail_3d == 0)
     success = success_2d & (~pred.has_positions | success_3d_inst)
+    if v2:  # what stayed still, with success's own tests
+        kept = (iou_obj >= SUCCESS_IOU) & (~pred.has_positions[obj_inst] | near)
+        still = ~gold.moved
+        n_still = gold.n_objects - gold.n_moved
+        kept_still = _safe_div(_per_instance(obj_inst, kept & still, n), n_still)
+        n_not_kept = _per_instance(obj_inst, ~kept, n)
+        moved_still = _per_instance(obj_inst, still & ~kept, n)
+        success_strict = success & (moved_still == 0)
 
     # Programs: gold step k of an instance against predicted step k.
     step_inst = gold.step_instance
@@ -177,6 +249,9 @@ def instance_scores(gold: GoldTable, pred: PredictionTable) -> tuple[pd.DataFram
         "success_2d": success_2d.astype(np.float64),
         "success_3d": success_3d_inst.astype(np.float64) if any_pos else np.full(n, np.nan),
     }
+    if v2:
+        cols["success_strict"] = success_strict.astype(np.float64)
+        cols["kept_still"] = kept_still
     exact = _per_instance(step_inst, act_ok & sub_ok & ref_ok, n)
     cols["program_exact"] = (same_len & (exact == gold.n_steps)).astype(np.float64)
     matches = {}
@@ -208,6 +283,15 @@ def instance_scores(gold: GoldTable, pred: PredictionTable) -> tuple[pd.DataFram
     placed = present & points_in_boxes(place, gold.final_boxes[obj_moved])
     cols["identification"] = np.where(single, ident.astype(np.float64), np.nan)
     cols["placement"] = np.where(single, placed.astype(np.float64), np.nan)
+    if v2:
+        gold_abstain = gold.abstain_codes
+        pred_abstain = pred.abstain_codes
+        moves_nothing = np.where(pred.has_program, pred_len == 0, n_not_kept == 0)
+        no_action = np.int8(ABSTAIN_CODES["no action"])
+        decision = np.where(pred_abstain > 0, pred_abstain,
+                            np.where(moves_nothing, no_action, np.int8(0)))
+        right = present & (decision == gold_abstain)
+        cols["abstention"] = np.where(gold_abstain > 0, right.astype(np.float64), np.nan)
 
     # Per-step IoU-M from step boxes.
     if pred.has_step_boxes.any():

@@ -21,10 +21,15 @@ from nsrmp_bench.storage.atomic import atomic_write_text
 if TYPE_CHECKING:
     import rich.console
 
-__all__ = ["BREAKDOWNS", "BREAKDOWN_SHOWN", "SHORT_BREAKDOWN", "ScoreResult", "json_ready"]
+__all__ = ["BREAKDOWNS", "BREAKDOWN_SHOWN", "PAPER_TABLE_EXTRA", "SHORT_BREAKDOWN", "ScoreResult",
+           "json_ready"]
 
-BREAKDOWN_SHOWN = ("iou_m", "iou", "success", "program_exact")
-"""The metrics the printed breakdown shows (the JSON and DataFrames hold all of them)."""
+BREAKDOWN_SHOWN = ("iou_m", "iou", "success", "success_strict", "kept_still", "program_exact")
+"""The metrics the printed breakdown shows where the scorer reports them (the JSON and
+DataFrames hold all of them; ``scorer-v1`` has no strict success or kept still)."""
+
+PAPER_TABLE_EXTRA = {"success_strict": "success strict", "kept_still": "kept still"}
+"""``scorer-v2``'s columns beside the paper's IoU and IoU-M in :meth:`ScoreResult.paper_table`."""
 
 SHORT_BREAKDOWN = ("steps", "objects", "relational", "phrasing")
 """The categories the printed breakdown shows by default (``breakdown="short"``)."""
@@ -120,10 +125,13 @@ class ScoreResult:
         return rows.set_index(["category", "group"])[["value", "ci_low", "ci_high", "n"]]
 
     def paper_table(self) -> pd.DataFrame:
-        """The paper's Table I layout: IoU and IoU-M overall, by steps and simple/complex."""
+        """The paper's Table I layout: IoU and IoU-M overall, by steps and simple/complex
+        (under ``scorer-v2`` with strict success and kept still beside them)."""
         cat = self.per_category
+        extra = {m: label for m, label in PAPER_TABLE_EXTRA.items() if m in self.summary.index}
         rows: dict[str, dict[str, float]] = {
             "overall": {"IoU": self.value("iou"), "IoU-M": self.value("iou_m"),
+                        **{label: self.value(m) for m, label in extra.items()},
                         "n": _num(self.summary.at["iou", "n"])},
         }
         for name, category, group in (
@@ -137,6 +145,7 @@ class ScoreResult:
                 by = sel.set_index("metric")
                 rows[name] = {"IoU": _num(by.at["iou", "value"]),
                               "IoU-M": _num(by.at["iou_m", "value"]),
+                              **{label: _num(by.at[m, "value"]) for m, label in extra.items()},
                               "n": _num(by.at["iou", "n"])}
         return pd.DataFrame.from_dict(rows, orient="index")
 
@@ -223,7 +232,8 @@ class ScoreResult:
             b.add_column("n", justify="right", min_width=3)
             b.add_column("IoU-M", justify="right", min_width=5)
             b.add_column(f"{level:.0%} CI", justify="right", no_wrap=True)
-            for m in BREAKDOWN_SHOWN[1:]:
+            columns = [m for m in BREAKDOWN_SHOWN[1:] if m in self.summary.index]
+            for m in columns:
                 b.add_column(str(self.summary.at[m, "label"]), justify="right", min_width=5)
             wide = categories.pivot_table(
                 index=["category", "group"], columns="metric",
@@ -238,7 +248,7 @@ class ScoreResult:
                     shown_cat, str(group), str(int(_cell(row, "n", "iou"))),
                     _fmt(_cell(row, "value", "iou_m")),
                     _ci(_cell(row, "ci_low", "iou_m"), _cell(row, "ci_high", "iou_m")),
-                    *(_fmt(_cell(row, "value", m)) for m in BREAKDOWN_SHOWN[1:]),
+                    *(_fmt(_cell(row, "value", m)) for m in columns),
                 )
             con.print(b)
         if hidden:

@@ -20,12 +20,12 @@ from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.scoring.align import PredictionTable, align
 from nsrmp_bench.scoring.bootstrap import bootstrap_intervals, resampling_method
 from nsrmp_bench.scoring.gold import GoldTable, load_gold
-from nsrmp_bench.scoring.metrics import METRICS, instance_scores, step_metric_name
+from nsrmp_bench.scoring.metrics import METRICS_V2, instance_scores, step_metric_name
 from nsrmp_bench.scoring.reader import read_submission_pending
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.submission import Prediction, Submission, SubmissionHeader
 from nsrmp_bench.scoring.validate import Problems, parse_predictions
-from nsrmp_bench.scoring.version import SCORER_ID
+from nsrmp_bench.scoring.version import SCORER_ID, check_scorer
 from nsrmp_bench.storage.split_root import part_of_split
 
 __all__ = [
@@ -48,8 +48,8 @@ Predictions = Submission | str | Path | Sequence[Prediction]
 
 
 def metric_columns(gold: GoldTable, frame: pd.DataFrame) -> list[str]:
-    """The figure columns of a per-instance frame, in report order."""
-    cols = [m.name for m in METRICS]
+    """The figure columns of a per-instance frame (of either scorer), in report order."""
+    cols = [m.name for m in METRICS_V2 if m.name in frame.columns]
     cols += [step_metric_name(k) for k in range(1, gold.max_steps + 1)
              if step_metric_name(k) in frame.columns]
     return cols
@@ -92,13 +92,14 @@ def prepare(
     gold: GoldTable,
     *,
     unknown_ids: str = "error",
+    scorer: str = SCORER_ID,
 ) -> tuple[PredictionTable, pd.DataFrame, dict[str, int]]:
     """Read and check ``predictions`` (or a :func:`read_predictions` result), match them to
-    ``gold``, and compute per-instance values."""
+    ``gold``, and compute per-instance values of ``scorer``'s figures."""
     sub, pending = (predictions if isinstance(predictions, tuple)
                     else read_predictions(predictions))
     table = align(sub, gold, unknown_ids=unknown_ids, pending=pending)
-    frame, source_counts = instance_scores(gold, table)
+    frame, source_counts = instance_scores(gold, table, scorer=scorer)
     return table, frame, {**table.counts, **source_counts}
 
 
@@ -135,7 +136,7 @@ def summarise(
         groupings=[(codes, len(labels)) for _, labels, codes in groupings],
         group_intervals=breakdown_intervals,
     )
-    specs = {m.name: m for m in METRICS}
+    specs = {m.name: m for m in METRICS_V2}
     rows = []
     step_rows = []
     for i, c in enumerate(cols):
@@ -185,6 +186,7 @@ def score(
     breakdown_intervals: bool = True,
     unknown_ids: str = "error",
     split: str | None = None,
+    scorer: str = SCORER_ID,
 ) -> ScoreResult:
     """Score predictions against a split's data.
 
@@ -200,15 +202,18 @@ def score(
     (0 resamples: no intervals). ``breakdown=False`` skips the per-category tables and
     ``breakdown_intervals=False`` only their intervals (the costly part on huge splits).
     ``unknown_ids="warn"`` ignores (and counts) lines for ids outside the split instead of
-    refusing the file. Raises :class:`~nsrmp_bench.errors.SubmissionError` for a bad file.
+    refusing the file. ``scorer`` picks the figures: ``"scorer-v2"`` (the default) or
+    ``"scorer-v1"`` (its figures only, with the same values), whichever scorer the file's
+    header names. Raises :class:`~nsrmp_bench.errors.SubmissionError` for a bad file.
     """
+    check_scorer(scorer)
     if isinstance(predictions, Sequence) and not isinstance(predictions, str):
         gold = load_gold(data, split=split)  # the header's split comes from the data
         read = read_predictions(predictions, split=gold.split or split)
     else:
         read = read_predictions(predictions)
         gold = load_gold(data, split=split, part=part_of_split(read[0].header.split))
-    table, frame, counts = prepare(read, gold, unknown_ids=unknown_ids)
+    table, frame, counts = prepare(read, gold, unknown_ids=unknown_ids, scorer=scorer)
     summary, per_step, per_category = summarise(
         gold, frame, seed=seed, n_boot=n_boot, level=level, breakdown=breakdown,
         breakdown_intervals=breakdown_intervals,
@@ -223,7 +228,7 @@ def score(
         "breakdown_intervals": breakdown and breakdown_intervals,
     }
     return ScoreResult(
-        scorer=SCORER_ID,
+        scorer=scorer,
         split=gold.split or table.header.split,
         source=table.source,
         model=table.header.model,

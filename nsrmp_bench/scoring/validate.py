@@ -23,7 +23,13 @@ from numpy.typing import NDArray
 
 from nsrmp_bench.errors import SubmissionError
 from nsrmp_bench.scoring.ragged import offsets_from_lengths
-from nsrmp_bench.scoring.submission import Prediction, Submission, SubmissionHeader
+from nsrmp_bench.scoring.submission import (
+    ABSTAIN_CODES,
+    ABSTAIN_VALUES,
+    Prediction,
+    Submission,
+    SubmissionHeader,
+)
 from nsrmp_bench.scoring.version import (
     KNOWN_SCORERS,
     SCORER_ID,
@@ -45,7 +51,7 @@ MAX_SHOWN = 20
 """Most problems listed in one error message (all are counted)."""
 
 RECORD_FIELDS = ("id", "boxes", "step_boxes", "program", "pick", "place", "positions",
-                 "detections")
+                 "detections", "abstain")
 """The fields a prediction line may have; ``id`` and ``boxes`` are required."""
 
 _FIELD_SET = frozenset(RECORD_FIELDS)
@@ -163,6 +169,7 @@ class SubmissionParser:
         self._positions: list[Any] = []
         self._has_det: list[bool] = []
         self._detections: list[Any] = []
+        self._abstain: list[int] = []
         self._raw: list[dict[str, Any]] = []
 
     def where(self, lineno: int) -> str:
@@ -463,7 +470,14 @@ class SubmissionParser:
             place = self._point(lineno, "place", obj["place"])
             if place is None:
                 return
+        abstain = obj.get("abstain")
+        code = 0
+        if abstain is not None:
+            code = self._abstain_code(lineno, abstain, obj)
+            if code < 0:
+                return
         # Everything structural is fine: keep the record.
+        self._abstain.append(code)
         self._ids.append(rid)
         self._lines.append(lineno)
         self._nobj.append(n)
@@ -488,6 +502,38 @@ class SubmissionParser:
         self._has_det.append(detections is not None)
         if detections is not None:
             self._detections.extend(detections)
+
+    def _abstain_code(self, lineno: int, value: object, obj: dict[str, Any]) -> int:
+        """The code of a line's ``abstain`` value (1, 2), or -1 after recording the problem:
+        an unknown value, or an abstention that also acts (program steps, step boxes, a
+        pick or place location)."""
+        if not isinstance(value, str) or value not in ABSTAIN_CODES:
+            hint = _did_you_mean(value, ABSTAIN_VALUES) if isinstance(value, str) else ""
+            self.problem(
+                lineno,
+                f"'abstain' is {_show(value, 40)}{hint}; it is one of {list(ABSTAIN_VALUES)}, "
+                "or null (or left out) for a line that acts",
+            )
+            return -1
+        program = obj.get("program")
+        if program:
+            self.problem(
+                lineno,
+                f"'abstain' is {value!r} but the line also has a program of {len(program)} "
+                "step(s); a line that abstains does nothing: give 'program': [] (or leave it "
+                "out), or drop 'abstain' to act",
+            )
+            return -1
+        acting = [k for k in ("step_boxes", "pick", "place") if obj.get(k) is not None]
+        if acting:
+            self.problem(
+                lineno,
+                f"'abstain' is {value!r} but the line also gives {acting}, a trace of actions "
+                "on an instance it declares abstained; leave them out (its 'boxes' are the "
+                "objects' final boxes, where they stand), or drop 'abstain' to act",
+            )
+            return -1
+        return ABSTAIN_CODES[value]
 
     # -- the whole file -------------------------------------------------------------------
     def _array(self, rows: list[Any], width: int, name: str) -> NDArray[np.float64]:
@@ -644,6 +690,7 @@ class SubmissionParser:
             line_label=self.label,
             has_detections=has_det if has_det.any() else None,
             detections=detections if has_det.any() else None,
+            abstain=np.array(self._abstain, dtype=np.int8),
         )
 
 

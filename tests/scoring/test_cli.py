@@ -51,7 +51,7 @@ def test_baseline_score_compare_check(tmp_path: Path, data: Path,
     printed = capsys.readouterr().out
     assert "IoU-M" in printed and "Breakdown" in printed and "95% CI" in printed
     report = json.loads((tmp_path / "noop.json").read_text())
-    assert report["scorer"] == "scorer-v1" and report["split"] == SPLIT
+    assert report["scorer"] == "scorer-v2" and report["split"] == SPLIT
     assert report["summary"]["iou_m"]["n"] == 6
     assert report["summary"]["iou_m"]["ci_low"] <= report["summary"]["iou_m"]["value"]
     assert report["settings"]["n_boot"] == 200

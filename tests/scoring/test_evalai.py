@@ -22,7 +22,7 @@ from nsrmp_bench.errors import InvalidArgument, NSRMPError
 from nsrmp_bench.evalai import write_bundle
 from nsrmp_bench.leaderboard import COLUMNS
 from nsrmp_bench.scoring.gold import load_episodes
-from nsrmp_bench.scoring.metrics import METRICS
+from nsrmp_bench.scoring.metrics import METRICS_V2
 from nsrmp_bench.scoring.scorer import score
 from nsrmp_bench.split_specs import load_split_file
 from nsrmp_bench.storage.manifest import read_manifest
@@ -30,7 +30,7 @@ from nsrmp_bench.storage.manifest import read_manifest
 pytestmark = pytest.mark.sim
 yaml = pytest.importorskip("yaml")
 
-LABELS = {m.name: m.label for m in METRICS}
+LABELS = {m.name: m.label for m in METRICS_V2}
 SECRET = "5e" * 32
 SPEC = {"id": "hiddenchallenge-v1", "description": "a private test for the tests",
         "image": [160, 120],

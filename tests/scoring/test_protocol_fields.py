@@ -97,7 +97,7 @@ def test_a_file_made_on_another_manifest_is_refused(noop: Path, smoke_v2_test: P
     ("boxes", "mine", "'gold' or 'detected:<detector id>'"),
     ("training_parts", ["paper"], "a list of split parts"),
     ("manifest_root_hash", "123", "64 hex digits"),
-    ("scorer", "scorer-v9", "one of ['scorer-v1']"),
+    ("scorer", "scorer-v9", "one of ['scorer-v1', 'scorer-v2']"),
 ])
 def test_a_malformed_protocol_field_is_named_with_the_fix(
         noop: Path, tmp_path: Path, key: str, value: Any, expected: str) -> None:
