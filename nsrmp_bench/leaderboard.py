@@ -113,6 +113,8 @@ def _cell(value: float, low: float, high: float) -> str:
 
 def scorer_note(scorer: str) -> str:
     """What a board says of the scorer its rows were scored with."""
+    if "scorer-v2" not in scorer:  # a board scored before scorer-v2 has no such columns
+        return f"Scored with {scorer}."
     return (f"Scored with {scorer}: success_strict is success with every object the gold "
             "leaves in place kept still (final box IoU >= 0.5 with gold), kept_still the "
             "share of those objects kept still.")

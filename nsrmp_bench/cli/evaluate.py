@@ -60,25 +60,33 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def render_table(results: Results) -> None:
-    """Print IoU-M [95% CI] per model (rows) and split part (columns)."""
+    """Print IoU-M [95% CI] per model (rows) and split part (columns); under ``scorer-v2``
+    strict success and kept still the same way."""
     from rich.console import Console
     from rich.table import Table
 
-    t = Table(title="IoU-M [95% CI] per split part (n instances)", title_justify="left")
-    t.add_column("model")
-    for split in results.splits:
-        t.add_column(split, justify="right")
-    for model in results.models:
-        cells = []
+    scorers = sorted({r.scorer for r in results.runs})
+    shown = [("iou_m", "IoU-M"), ("success_strict", "strict success"),
+             ("kept_still", "kept still")]
+    for metric, label in shown:
+        if not any(metric in r.summary for r in results.runs):
+            continue
+        t = Table(title=f"{label} [95% CI] per split part (n instances) · "
+                  f"{', '.join(scorers)}", title_justify="left")
+        t.add_column("model")
         for split in results.splits:
-            run = results.run(model, split)
-            if run is None:
-                cells.append("")
-                continue
-            e = run.metric("iou_m")
-            cells.append(f"{e.value:.3f} [{e.low:.3f}, {e.high:.3f}] ({e.n})")
-        t.add_row(model, *cells)
-    Console().print(t)
+            t.add_column(split, justify="right")
+        for model in results.models:
+            cells = []
+            for split in results.splits:
+                run = results.run(model, split)
+                if run is None or metric not in run.summary:
+                    cells.append("")
+                    continue
+                e = run.metric(metric)
+                cells.append(f"{e.value:.3f} [{e.low:.3f}, {e.high:.3f}] ({e.n})")
+            t.add_row(model, *cells)
+        Console().print(t)
 
 
 def _predict_part(model: str, data: Path, out: Path) -> object:

@@ -92,7 +92,10 @@ def run(args: argparse.Namespace) -> int:
                           f"# Robustness on {suite.split} (suite seed {suite.seed})\n\n"
                           "A row per model; per kind, the paired IoU-M difference to the "
                           "unperturbed part [95% interval]; the controls (blind, shuffled) "
-                          "as IoU-M. Made by `nsrmp-bench robustness ... --board "
+                          "as IoU-M."
+                          + (" Strict success and kept still (scorer-v2) on the unperturbed "
+                             "part." if suite.has_strict else "")
+                          + " Made by `nsrmp-bench robustness ... --board "
                           f"{args.board}`.\n\n" + suite.markdown())
     if not args.quiet:
         render(suite)

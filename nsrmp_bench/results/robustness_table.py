@@ -43,6 +43,10 @@ class KindRow:
     program_exact: float
     clean_program_exact: float
     success: float
+    success_strict: float = math.nan  # scorer-v2's, on the perturbed part (NaN: not scored)
+    kept_still: float = math.nan
+    clean_success_strict: float = math.nan  # the same on the unperturbed part
+    clean_kept_still: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -74,27 +78,40 @@ class Suite:
         return next((r for r in self.rows if r.source == source and r.kind == kind), None)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-able form (``robustness.json``)."""
+        """JSON-able form (``robustness.json``; a table without ``scorer-v2``'s figures
+        is written as before them)."""
+        strict = self.has_strict
         return {"format": SUITE_FORMAT, "split": self.split, "seed": self.seed,
                 "source_root_hash": self.source_root_hash,
-                "rows": [_finite(asdict(r)) for r in self.rows]}
+                "rows": [_finite(_row_dict(r, strict)) for r in self.rows]}
 
     def write(self, path: str | os.PathLike[str]) -> Path:
         """Write the table as JSON (atomically)."""
         text = json.dumps(self.to_dict(), indent=1, sort_keys=True) + "\n"
         return atomic_write_text(path, text)
 
+    @property
+    def has_strict(self) -> bool:
+        """Whether the rows hold ``scorer-v2``'s strict success and kept still (a table
+        made before ``scorer-v2`` does not)."""
+        return any(math.isfinite(r.clean_success_strict) for r in self.rows)
+
     def table(self) -> tuple[list[str], list[list[str]]]:
         """The board's header and rows of text: a row per source, its IoU-M on the
-        unperturbed part, per kind the paired IoU-M difference [95% interval], the controls
-        apart (their IoU-M)."""
+        unperturbed part (and, under ``scorer-v2``, its strict success and kept still
+        there), per kind the paired IoU-M difference [95% interval], the controls apart
+        (their IoU-M)."""
         controls = self.controls
         kinds = [k for k in self.kinds if k not in controls]
-        head = ["model", "IoU-M", *kinds, *(f"{c} (IoU-M)" for c in controls)]
+        strict = self.has_strict
+        head = ["model", "IoU-M", *(["strict success", "kept still"] if strict else []),
+                *kinds, *(f"{c} (IoU-M)" for c in controls)]
         rows = []
         for s in self.sources:
             first = next(r for r in self.rows if r.source == s)
             cells = [s, f"{first.clean_iou_m:.3f}"]
+            if strict:
+                cells += [_fmt(first.clean_success_strict), _fmt(first.clean_kept_still)]
             for k in kinds:
                 r = self.row(s, k)
                 cells.append("" if r is None else
@@ -111,6 +128,21 @@ class Suite:
         lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         lines += ["| " + " | ".join(cells) + " |" for cells in rows]
         return "\n".join(lines) + "\n"
+
+
+_STRICT_FIELDS = ("success_strict", "kept_still", "clean_success_strict", "clean_kept_still")
+
+
+def _row_dict(row: KindRow, strict: bool) -> dict[str, Any]:
+    out = asdict(row)
+    if not strict:
+        for k in _STRICT_FIELDS:
+            out.pop(k)
+    return out
+
+
+def _fmt(value: float) -> str:
+    return f"{value:.3f}" if math.isfinite(value) else "–"
 
 
 def _finite(row: dict[str, Any]) -> dict[str, Any]:

@@ -46,7 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from nsrmp_bench.errors import InvalidArgument
-from nsrmp_bench.leaderboard import COLUMNS, Entry
+from nsrmp_bench.leaderboard import COLUMNS, Entry, scorer_note
 from nsrmp_bench.ranks import RANK_RULE, shared_ranks
 from nsrmp_bench.results.colours import model_styles
 from nsrmp_bench.results.figures import CATEGORY_BARS, FIGURES, caption, figure_names
@@ -54,14 +54,14 @@ from nsrmp_bench.results.model_cards import CARD_FIELDS, NOT_STATED, model_card
 from nsrmp_bench.results.protocols import PROTOCOLS, Protocol, is_reference, protocol_of
 from nsrmp_bench.results.robustness_table import Suite, read_suite
 from nsrmp_bench.results.summary import Results
-from nsrmp_bench.scoring.metrics import METRICS
+from nsrmp_bench.scoring.metrics import METRICS_V2
 from nsrmp_bench.storage.atomic import atomic_write_text
 
 __all__ = ["ASSETS", "RANK_RULE", "ROBUSTNESS_DIR", "is_test_board", "read_boards",
            "read_robustness", "shared_ranks", "write_site"]
 
 ASSETS = ("site.css", "site.js")
-_LABELS = {m.name: m.label for m in METRICS}
+_LABELS = {m.name: m.label for m in METRICS_V2}
 
 
 def is_test_board(split: str) -> bool:
@@ -257,6 +257,9 @@ def _board_page(split: str, rows: list[dict[str, Any]], site: _Site) -> str:
         "heading to sort; the boxes below filter by protocol.</p>",
         f'<p class="note">{_e(RANK_RULE)}</p>',
     ]
+    scorers = sorted({str(r["scorer"]) for r in rows if r.get("scorer")})
+    if scorers:
+        body.append(f'<p class="note">{_e(scorer_note(", ".join(scorers)))}</p>')
     protocols: list[Protocol | None] = [site.protocol(site.entry(split, r["entry"]))
                                         for r in rows]
     present = [p for p in PROTOCOLS if any(q is not None and q.name == p for q in protocols)]

@@ -45,9 +45,11 @@ FORMAT = "nsrmp-bench-results"
 SCHEMA_VERSION = "1.0.0"
 KEPT_METRICS = (
     "iou_m", "iou", "success", "program_exact", "action_all_steps", "subject_all_steps",
-    "predicate_all_steps", "identification", "placement",
+    "predicate_all_steps", "identification", "placement", "success_strict", "kept_still",
+    "abstention",
 )
-"""The figures a summary keeps, per run and per category group."""
+"""The figures a summary keeps, per run and per category group (the last three where the
+run was scored with ``scorer-v2``)."""
 LEFT_OUT_CATEGORIES = frozenset({"template"})
 
 

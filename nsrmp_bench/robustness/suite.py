@@ -26,6 +26,7 @@ from nsrmp_bench.robustness.kinds import CONTROLS, KINDS, lexicon
 from nsrmp_bench.robustness.part import perturb_part
 from nsrmp_bench.scoring.compare import compare
 from nsrmp_bench.scoring.gold import load_episodes
+from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
 from nsrmp_bench.storage.atomic import atomic_write_text
 from nsrmp_bench.storage.manifest import MANIFEST_NAME, Manifest, read_manifest
@@ -130,6 +131,7 @@ def run_suite(
                 program_exact=result.value("program_exact"),
                 clean_program_exact=clean.value("program_exact"),
                 success=result.value("success"),
+                **_strict(result, clean),
             ))
             tell(f"{source.name} on {kind}: IoU-M {result.headline:.3f}, paired "
                  f"{d['diff']:+.3f} [{d['ci_low']:+.3f}, {d['ci_high']:+.3f}]")
@@ -138,3 +140,13 @@ def run_suite(
     suite.write(out_p / "robustness.json")
     atomic_write_text(out_p / "robustness.md", suite.markdown())
     return suite
+
+
+def _strict(result: ScoreResult, clean: ScoreResult) -> dict[str, float]:
+    """``scorer-v2``'s strict success and kept still on the perturbed and the unperturbed
+    part (none under ``scorer-v1``)."""
+    names = ("success_strict", "kept_still")
+    if not all(m in result.summary.index and m in clean.summary.index for m in names):
+        return {}
+    return {**{m: result.value(m) for m in names},
+            **{f"clean_{m}": clean.value(m) for m in names}}

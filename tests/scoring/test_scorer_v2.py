@@ -260,3 +260,32 @@ def test_score_cli_says_the_scorer(tmp_path: Path, capsys: pytest.CaptureFixture
         assert ("kept_still" in report["summary"]) == (scorer == "scorer-v2")
         printed = capsys.readouterr().out
         assert scorer in printed and ("strict success" in printed) == (scorer == "scorer-v2")
+
+
+# -- boards --------------------------------------------------------------------------------
+def test_a_board_says_its_scorer_and_shows_strict_success() -> None:
+    from nsrmp_bench.leaderboard import COLUMNS, render_markdown
+
+    row = {"model": "m", "kind": "baseline", "n": 3,
+           "metrics": {m: (0.5, 0.4, 0.6) for m in COLUMNS}}
+    text = render_markdown("unit-v1/test", [row])
+    assert "Scored with scorer-v2" in text and "success_strict | kept_still" in text
+    assert "0.500 [0.400, 0.600]" in text
+    assert "Scored with scorer-v1." in render_markdown("unit-v1/test", [row], "scorer-v1")
+
+
+def test_a_robustness_table_shows_strict_success_where_it_has_it() -> None:
+    from nsrmp_bench.results.robustness_table import KindRow, Suite, suite_from_dict
+
+    old = KindRow("m", "typo", False, 3, 4, 0.5, 0.4, 0.6, 0.7, -0.2, -0.3, -0.1, 0.01,
+                  0.5, 0.6, 0.4)
+    suite = Suite("unit-v1/test", 0, "0" * 64, (old,))
+    assert "strict success" not in suite.table()[0]
+    assert "success_strict" not in suite.to_dict()["rows"][0]  # written as before
+    new = dataclasses.replace(old, success_strict=0.3, kept_still=0.9,
+                              clean_success_strict=0.35, clean_kept_still=0.95)
+    suite = Suite("unit-v1/test", 0, "0" * 64, (new,))
+    head, rows = suite.table()
+    assert head[:4] == ["model", "IoU-M", "strict success", "kept still"]
+    assert rows[0][2:4] == ["0.350", "0.950"]
+    assert suite_from_dict(suite.to_dict(), "x") == suite
