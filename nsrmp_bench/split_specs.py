@@ -21,6 +21,7 @@ from __future__ import annotations
 import difflib
 import itertools
 import json
+import math
 import os
 import re
 from collections.abc import Mapping
@@ -67,7 +68,7 @@ PRIVATE_ENTROPY = "secret"
 SPLIT_ID_RE = re.compile(r"^(?P<name>[a-z][a-z0-9]*)-v(?P<version>[0-9]+)$")
 OFFICIAL_SPLITS = (
     "smoke-v2", "paper-v2", "objects-v2", "steps-v2", "attributes-v2", "language-v2",
-    "robot-v2",
+    "robot-v2", "semantics-v1",
 )
 """The official benchmark set. A shipped split outside it is training material
 (``dense5x-v2``, the dense baseline's 5x data): generated, verified and audited like the
@@ -145,6 +146,10 @@ class PartSpec:
     strata: tuple[Stratum, ...]
     private: bool = False
     """Whether the entropy comes from a secret (the spec says ``"entropy": "secret"``)."""
+    cell_stride: int = 1
+    """Instance ``i`` takes cell ``(i * cell_stride) mod cells``: a stride coprime to the
+    number of cells spreads a count that is no multiple of it over every category (the
+    spec's ``"cell_stride"``; 1, the default, is the plain order)."""
 
     def missing_secret(self, split_id: str) -> InvalidArgument:
         """The error of using this private part without its secret: how to give it."""
@@ -201,7 +206,7 @@ class SplitSpec:
             raise InvalidArgument(msg)
         cells = spec.cells()
         stratum, (objects, steps, relational, phrasing, wording, phenomenon) = cells[
-            index % len(cells)]
+            (index * spec.cell_stride) % len(cells)]
         pairs = ALL_PAIRS
         if stratum.pairs == "in_distribution":
             pairs = tuple(p for p in ALL_PAIRS if p not in self.held_out_pairs)
@@ -403,11 +408,18 @@ def _parse(data: Mapping[str, Any], where: str, *, source: str | None) -> SplitS
         if count == 0:
             msg = f"{pw}: count is 0; a part needs at least one instance"
             raise InvalidArgument(msg)
+        stride = _positive(part.get("cell_stride", 1), "cell_stride", pw)
+        n_cells = sum(len(s.cells()) for s in strata)
+        if math.gcd(stride, n_cells) != 1:
+            msg = (f"{pw}.cell_stride: {stride} shares a factor with the part's {n_cells} "
+                   "cells, so some cells would never be drawn; use a stride coprime to it "
+                   "(1 always is)")
+            raise InvalidArgument(msg)
         if part["entropy"] == PRIVATE_ENTROPY:
-            parts[name] = PartSpec(name, count, None, strata, private=True)
+            parts[name] = PartSpec(name, count, None, strata, private=True, cell_stride=stride)
         else:
             entropy = _entropy(part["entropy"], pw)
-            parts[name] = PartSpec(name, count, entropy, strata)
+            parts[name] = PartSpec(name, count, entropy, strata, cell_stride=stride)
     try:
         image = (int(data["image"][0]), int(data["image"][1]))
         held_out_pairs = tuple((str(s), str(c)) for s, c in data.get("held_out_pairs", ()))

@@ -61,6 +61,9 @@ def _counts(records: Sequence[ShardRecord], *, inputs_only: bool = False) -> dic
     for key in ("objects",) if inputs_only else ("steps", "objects", "relational", "phrasing"):
         c = Counter(_key(e.categories.get(key)) for e in eps)
         out[key] = dict(sorted(c.items()))
+    if not inputs_only and any("phenomenon" in e.categories for e in eps):
+        c = Counter(str(e.categories.get("phenomenon", "")) for e in eps)
+        out["phenomenon"] = dict(sorted(c.items()))
     return out
 
 
