@@ -50,6 +50,7 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[1]
 OUTPUT = REPO / "reference_model" / "language" / "lexicon.json"
 CORRECTIONS = REPO / "reference_model" / "language" / "lexicon_corrections.json"
+NOTICE = REPO / "NOTICE"
 SCRIPT = "scripts/build_lexicon.py"
 VERSION = "lexicon-v1"
 SCHEMA_VERSION = "1.0.0"
@@ -481,6 +482,16 @@ PRIORITY = ("shape", "colour", "object", "action", "relation", "superlative", "o
             "negation", "modality", "question", "reference")
 
 
+def wordnet_licence() -> str:
+    """The WordNet 3.0 licence as the repository's NOTICE holds it (its notice must appear
+    on all copies, so the data file carries it too)."""
+    text = NOTICE.read_text("utf-8")
+    start = text.index("WordNet Release 3.0")
+    end = text.index("Princeton University and LICENSEE agrees to preserve same.")
+    body = text[start:end] + "Princeton University and LICENSEE agrees to preserve same."
+    return "\n".join(line.strip() for line in body.splitlines())
+
+
 def build(folder: Path) -> dict[str, Any]:
     """The lexicon as JSON-able data, from WordNet in ``folder``, xkcd and the corrections."""
     corrections = json.loads(CORRECTIONS.read_text("utf-8"))["corrections"]
@@ -507,7 +518,7 @@ def build(folder: Path) -> dict[str, Any]:
         "schema_version": SCHEMA_VERSION,
         "absent": ABSENT,
         "categories": list(PRIORITY),
-        "provenance": {
+        "_provenance": {
             "script": SCRIPT,
             "rebuild": ("apt-get install wordnet-base; pip install -e '.[dev]'; "
                         f"python {SCRIPT} (--check compares)"),
@@ -515,13 +526,14 @@ def build(folder: Path) -> dict[str, Any]:
                 "wordnet": ("WordNet 3.0 (Debian package wordnet-base), read with nltk's "
                             "WordNetCorpusReader. WordNet 3.0 Copyright 2006 by Princeton "
                             "University. All rights reserved. Used under the WordNet 3.0 "
-                            "licence; its full text is in NOTICE."),
+                            "licence: wordnet_licence below, and the repository's NOTICE."),
                 "xkcd": ("xkcd colour survey names and RGB (Randall Munroe, CC0 1.0), as "
                          "matplotlib ships them (matplotlib._color_data.XKCD_COLORS)."),
                 "closed-class": f"function words written in {SCRIPT} (CLOSED_CLASS)",
                 "world": "the world's own names (nsrmp_bench.vocabulary)",
                 "hand": "reference_model/language/lexicon_corrections.json",
             },
+            "wordnet_licence": wordnet_licence(),
             "not_read": ("the robustness suite's word lists (nsrmp_bench/robustness/) and the "
                          "generator's templates: never used to build or select this file"),
         },
