@@ -194,8 +194,8 @@ def wordnet_folder() -> Path:
 @contextmanager
 def open_wordnet(folder: Path) -> Iterator[Any]:
     """nltk's ``WordNetCorpusReader`` over a temporary copy of ``folder``."""
-    import nltk
-    from nltk.corpus.reader.wordnet import WordNetCorpusReader
+    import nltk  # type: ignore[import-untyped]
+    from nltk.corpus.reader.wordnet import WordNetCorpusReader  # type: ignore[import-untyped]
 
     with tempfile.TemporaryDirectory(prefix="nsrmp-wordnet-") as tmp:
         root = Path(tmp) / "corpora" / "wordnet"
@@ -275,13 +275,13 @@ def add_wordnet(b: Builder, wn: Any) -> None:
     # -most adjectives (leftmost, hindmost, uppermost) by their gloss
     for syn in sorted(wn.all_synsets("a"), key=lambda s: s.name()):
         for lemma in syn.lemma_names():
-            w = _word(lemma)
-            if not w or not w.endswith("most") or " " in w:
+            most = _word(lemma)
+            if not most or not most.endswith("most") or " " in most:
                 continue
-            gloss = set(re.findall(r"[a-z]+", syn.definition().lower())) | {w[:-4]}
+            gloss = set(re.findall(r"[a-z]+", syn.definition().lower())) | {most[:-4]}
             for key, value in MOST_GLOSS:
-                if key in gloss or w.startswith(key):
-                    b.add(w, "superlative", value, f"wordnet:{syn.name()}")
+                if key in gloss or most.startswith(key):
+                    b.add(most, "superlative", value, f"wordnet:{syn.name()}")
                     break
     # -est forms that WordNet's morphology reads back as the base
     for base, value in sorted(SUPERLATIVE_BASES.items()):
@@ -295,10 +295,10 @@ def add_wordnet(b: Builder, wn: Any) -> None:
         if len(nums) == 1 and 1 <= min(nums) <= MAX_ORDINAL:
             num = str(min(nums))
             for lemma in names:
-                w = _word(lemma)
-                if w:
-                    b.add(w, "ordinal", num, f"wordnet:{syn.name()}")
-                    for adv in _ordinal_adverbs(wn, w):
+                ordinal = _word(lemma)
+                if ordinal:
+                    b.add(ordinal, "ordinal", num, f"wordnet:{syn.name()}")
+                    for adv in _ordinal_adverbs(wn, ordinal):
                         b.add(adv, "ordinal", num, f"wordnet:{syn.name()}")
     for name in ("farthest.r.01", "furthest.r.01"):
         for w, syn in _synset_words(wn, name, hyponyms=False):
@@ -388,8 +388,9 @@ def prototypes(xkcd: dict[str, tuple[float, float, float]]) -> dict[str, tuple[f
     colour terms the world lacks (``absent:NAME``), from xkcd's RGB."""
     from nsrmp_bench.vocabulary import COLOUR_RGBA
 
-    out = {name: srgb_to_lab(rgba[:3]) for name, rgba in COLOUR_RGBA.items()
-           if name != "white"}
+    out: dict[str, tuple[float, ...]] = {name: srgb_to_lab(rgba[:3])
+                                         for name, rgba in COLOUR_RGBA.items()
+                                         if name != "white"}
     for name in ABSENT_PROTOTYPES:
         out[f"{ABSENT}:{name}"] = srgb_to_lab(xkcd[name])
     return out
