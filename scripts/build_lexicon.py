@@ -87,7 +87,7 @@ SEEDS: dict[tuple[str, str], tuple[str, ...]] = {
     ("action", "put"): ("put.v.01", "move.v.02", "transfer.v.02", "set_down.v.04",
                         "shift.v.02", "position.v.01", "relocate.v.02", "plank.v.02",
                         "lay.v.02", "transport.v.02"),
-    ("action", "stack"): ("stack.v.02", "pile.v.01", "stack.n.01", "pile.n.01"),
+    ("action", "stack"): ("stack.v.02", "pile.v.01", "stack.n.01"),
     ("action", ABSENT): ("rotate.v.04", "revolve.v.01", "flip.v.05", "throw.v.01",
                          "remove.v.01/remove", "paint.v.02", "shake.v.01", "roll.v.01",
                          "lift.v.02", "tilt.v.01", "destroy.v.01"),
@@ -424,8 +424,11 @@ def xkcd_table() -> dict[str, tuple[float, float, float]]:
             for name, hexa in sorted(_color_data.XKCD_COLORS.items())}
 
 
-def add_xkcd(b: Builder) -> None:
-    """Every xkcd name (phrases too), its one-word names and its agreed first words."""
+def add_xkcd(b: Builder, wn: Any) -> None:
+    """Every xkcd name (phrases too), its one-word names, and the first words of its
+    names where they all agree (``kelly`` of ``kelly green``) and WordNet knows the word
+    as no adjective or adverb (not ``really`` of ``really light blue``, ``almost`` of
+    ``almost black``, ``clear`` of ``clear blue``: modifiers, not names)."""
     table = xkcd_table()
     protos = prototypes(table)
     read = {name: colour_class(rgb, protos) for name, rgb in table.items()}
@@ -439,7 +442,8 @@ def add_xkcd(b: Builder) -> None:
         if len(words) > 1:
             first.setdefault(words[0], set()).add(value)
     for word, values in sorted(first.items()):
-        if len(values) == 1 and word not in b.entries and len(word) > 2:
+        if (len(values) == 1 and word not in b.entries and len(word) > 2
+                and not wn.synsets(word, "a") and not wn.synsets(word, "r")):
             b.add(word, "colour", next(iter(values)), "xkcd:first-word")
 
 
@@ -499,7 +503,7 @@ def build(folder: Path) -> dict[str, Any]:
     b = Builder()
     with open_wordnet(folder) as wn:
         add_wordnet(b, wn)
-    add_xkcd(b)
+        add_xkcd(b, wn)
     add_closed_class(b)
     add_core(b)
     apply_corrections(b, corrections)
