@@ -132,7 +132,7 @@ CLOSED_CLASS: dict[tuple[str, str], tuple[str, ...]] = {
     ("modality", "ability"): ("can", "could", "able"),
     ("modality", "request"): ("would", "will", "please", "kindly"),
     ("modality", "obligation"): ("must", "should", "shall", "ought", "need", "needs",
-                                 "have", "has"),
+                                 "have to", "has to"),
     ("modality", "possibility"): ("may", "might", "maybe", "perhaps", "possibly"),
     ("modality", "volition"): ("want", "wants", "wish", "like", "prefer", "rather"),
     ("question", "what"): ("what",),
@@ -142,7 +142,7 @@ CLOSED_CLASS: dict[tuple[str, str], tuple[str, ...]] = {
     ("question", "why"): ("why",),
     ("question", "how"): ("how",),
     ("question", "when"): ("when",),
-    ("question", "whether"): ("whether", "if"),
+    ("question", "whether"): ("whether",),
     ("reference", "it"): ("it", "its", "itself", "them", "they", "their", "those", "these",
                           "this", "that"),
     ("reference", "one"): ("one", "ones"),
@@ -151,9 +151,9 @@ CLOSED_CLASS: dict[tuple[str, str], tuple[str, ...]] = {
     ("relation", "top"): ("on", "onto", "upon", "atop", "over", "above"),
     ("relation", ABSENT): ("under", "below", "beneath", "underneath", "inside", "into",
                            "within", "between", "among", "around", "beside", "near",
-                           "next", "by"),
+                           "next to", "close to", "near to", "in between"),
     ("relation", "behind"): ("behind",),
-    ("relation", "front"): ("before",),
+    ("relation", "front"): ("in front of",),
 }
 
 # Superlatives read from WordNet's -most adjectives by a word of their gloss, and the
