@@ -15,7 +15,8 @@ Sources, read here and nowhere else (the package reads only the JSON this writes
   path; Debian ships no ``lexnames``, written here from the database's documented list;
   ``map_wn`` is switched off, it opens ``index.sense``, which ``wordnet-base`` lacks).
   The words of a handful of named synsets (:data:`SEEDS`), their hyponyms where stated,
-  adjective satellites, ``-most`` adjectives, ordinals and WordNet-checked inflections.
+  adjective satellites, ``-most`` adjectives, ordinals, superlatives and inflections
+  (WordNet's exception lists, else the regular rules of English).
 - **The xkcd colour survey** (CC0) as matplotlib ships it
   (``matplotlib._color_data.XKCD_COLORS``): every name, its one-word names and first words,
   read as one of the world's seven colours or as a colour the world lacks by the hue rule
@@ -157,7 +158,7 @@ CLOSED_CLASS: dict[tuple[str, str], tuple[str, ...]] = {
 }
 
 # Superlatives read from WordNet's -most adjectives by a word of their gloss, and the
-# bases whose WordNet-checked -est forms are superlatives.
+# bases whose -est forms (WordNet's exceptions, else the regular rule) are superlatives.
 MOST_GLOSS = (("left", "left"), ("right", "right"), ("rear", "behind"), ("back", "behind"),
               ("front", "front"), ("forward", "front"), ("top", "top"), ("upper", "top"),
               ("high", "top"), ("bottom", "bottom"), ("low", "bottom"), ("far", "far"),
