@@ -28,9 +28,11 @@ from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
 from nsrmp_bench.scoring.version import KNOWN_SCORERS, SCORER_ID
 from nsrmp_bench.storage.atomic import atomic_write_text
+from nsrmp_bench.storage.manifest import read_manifest
 from nsrmp_bench.storage.split_root import find_part
 
-__all__ = ["COLUMNS", "Entry", "build", "load_entries", "render_markdown", "scorer_note"]
+__all__ = ["COLUMNS", "PHENOMENON_COLUMNS", "Entry", "build", "load_entries",
+           "render_markdown", "scorer_note"]
 
 COLUMNS = ("iou_m", "iou", "success", "success_strict", "kept_still", "program_exact",
            "identification", "placement")
@@ -103,6 +105,43 @@ def load_entries(entries_dir: str | os.PathLike[str]) -> list[Entry]:
     return [Entry.read(p) for p in sorted(d.glob("*.json"))]
 
 
+PHENOMENON_COLUMNS = ("program_exact", "success_strict", "kept_still", "abstention")
+"""The figures a board of a part with phenomena (semantics-v1) shows per phenomenon."""
+
+
+def _by_phenomenon(result: ScoreResult) -> dict[str, dict[str, list[float]]]:
+    """Each phenomenon's value, interval and count of :data:`PHENOMENON_COLUMNS` (empty
+    where the part records no phenomenon)."""
+    cat = result.per_category
+    rows = cat[(cat["category"] == "phenomenon") & cat["metric"].isin(PHENOMENON_COLUMNS)]
+    out: dict[str, dict[str, list[float]]] = {}
+    for r in rows.itertuples(index=False):
+        out.setdefault(str(r.group), {})[str(r.metric)] = [
+            float(r.value), float(r.ci_low), float(r.ci_high), float(r.n)]
+    return out
+
+
+def _phenomenon_table(rows: list[dict[str, Any]]) -> list[str]:
+    """The board's second table: every row's figures per phenomenon."""
+    phenomena = sorted({p for row in rows for p in row.get("phenomena", {})})
+    if not phenomena:
+        return []
+    head = ["phenomenon", "model", *PHENOMENON_COLUMNS, "n"]
+    lines = ["", "## By phenomenon", "",
+             "Each phenomenon's instances (docs/semantics.md); abstention is defined where "
+             "the gold abstains (\u2013 elsewhere).", "",
+             "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for phenomenon in phenomena:
+        for row in rows:
+            figures = row.get("phenomena", {}).get(phenomenon, {})
+            cells = [phenomenon, row["model"]]
+            cells += [_cell(*figures[m][:3]) if m in figures else "\u2013"
+                      for m in PHENOMENON_COLUMNS]
+            n = figures.get("program_exact", [0, 0, 0, 0])[3]
+            lines.append("| " + " | ".join([*cells, str(int(n))]) + " |")
+    return lines
+
+
 def _cell(value: float, low: float, high: float) -> str:
     if math.isnan(value):
         return "–"
@@ -138,6 +177,7 @@ def render_markdown(split: str, rows: list[dict[str, Any]], scorer: str = SCORER
         cells += [_cell(*row["metrics"][m]) for m in COLUMNS]
         cells.append(str(row["n"]))
         lines.append("| " + " | ".join(cells) + " |")
+    lines += _phenomenon_table(rows)
     return "\n".join(lines) + "\n"
 
 
@@ -169,7 +209,9 @@ def build(
             )
             raise InvalidArgument(msg)
         _check_protocol(entry, data)
-        result = score(entry.predictions, data, breakdown=breakdown, scorer=scorer)
+        phenomena = "phenomenon" in read_manifest(data).to_dict().get("counts", {})
+        result = score(entry.predictions, data, breakdown=breakdown or phenomena,
+                       scorer=scorer)
         if on_result is not None:
             on_result(entry, result)
         metrics = {}
@@ -180,7 +222,8 @@ def build(
         boards.setdefault(entry.split, []).append({
             "entry": entry.name, "model": entry.model, "kind": entry.kind,
             "description": entry.description, "metrics": metrics,
-            "n": int(str(result.summary.at["iou_m", "n"])), "scorer": result.scorer,
+            "n": int(str(result.summary.at["iou", "n"])), "scorer": result.scorer,
+            **({"phenomena": _by_phenomenon(result)} if phenomena else {}),
         })
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
