@@ -115,9 +115,10 @@ def _by_phenomenon(result: ScoreResult) -> dict[str, dict[str, list[float]]]:
     cat = result.per_category
     rows = cat[(cat["category"] == "phenomenon") & cat["metric"].isin(PHENOMENON_COLUMNS)]
     out: dict[str, dict[str, list[float]]] = {}
-    for r in rows.itertuples(index=False):
-        out.setdefault(str(r.group), {})[str(r.metric)] = [
-            float(r.value), float(r.ci_low), float(r.ci_high), float(r.n)]
+    numbers = rows[["value", "ci_low", "ci_high", "n"]].to_numpy(dtype=float).tolist()
+    for group, metric, figures in zip(rows["group"].tolist(), rows["metric"].tolist(),
+                                      numbers, strict=True):
+        out.setdefault(str(group), {})[str(metric)] = figures
     return out
 
 
