@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +32,7 @@ from nsrmp_bench.reference_model.protocols import shipped_protocol
 from nsrmp_bench.scoring.file_formats import read_jsonl_bytes, write_jsonl_bytes
 from nsrmp_bench.scoring.protocol_fields import ProtocolFields
 from nsrmp_bench.scoring.reader import read_header
+from nsrmp_bench.scoring.version import KNOWN_SCORERS
 
 ENTRIES = Path(__file__).resolve().parents[1] / "leaderboards" / "entries"
 
@@ -54,10 +56,12 @@ def protocol_of(entry_file: Path) -> ProtocolFields:
         fields = BASELINES[model].protocol(int(header.get("seed", 0)), root)
     else:
         fields = shipped_protocol(model, root, detector=detector or None)
-    if fields.scorer != header["scorer"]:
-        msg = f"{entry_file}: its predictions are for {header['scorer']}, not {fields.scorer}"
+    if header["scorer"] not in KNOWN_SCORERS:
+        msg = (f"{entry_file}: its predictions are for {header['scorer']!r}, which this "
+               f"nsrmp-bench does not know ({list(KNOWN_SCORERS)})")
         raise InvalidArgument(msg)
-    return fields
+    # a file that abstains somewhere is written for scorer-v2; the header says which
+    return replace(fields, scorer=str(header["scorer"]))
 
 
 def _header_line(predictions: Path, protocol: dict[str, Any]) -> tuple[bytes, bytes]:
