@@ -1,4 +1,5 @@
-"""Scoring: the predictions format, its checks, the metrics of ``scorer-v1``, intervals.
+"""Scoring: the predictions format, its checks, the metrics of ``scorer-v2`` (and of
+``scorer-v1``, the same figures without what stayed still and abstention), intervals.
 
 ``score(predictions, data)`` returns a :class:`ScoreResult` (pandas DataFrames per metric,
 step, category and instance); ``compare(a, b, data)`` a paired :class:`Comparison`;
@@ -11,7 +12,7 @@ from __future__ import annotations
 from nsrmp_bench.scoring.check import CheckReport, check_submission
 from nsrmp_bench.scoring.compare import Comparison, compare
 from nsrmp_bench.scoring.gold import GoldTable, load_gold
-from nsrmp_bench.scoring.metrics import METRICS
+from nsrmp_bench.scoring.metrics import METRICS, METRICS_V2
 from nsrmp_bench.scoring.reader import read_submission
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
@@ -23,10 +24,12 @@ from nsrmp_bench.scoring.submission import (
     write_submission,
 )
 from nsrmp_bench.scoring.validate import parse_predictions
-from nsrmp_bench.scoring.version import SCORER_ID, SUBMISSION_FORMAT_VERSION
+from nsrmp_bench.scoring.version import KNOWN_SCORERS, SCORER_ID, SUBMISSION_FORMAT_VERSION
 
 __all__ = [
+    "KNOWN_SCORERS",
     "METRICS",
+    "METRICS_V2",
     "SCORER_ID",
     "SUBMISSION_FORMAT_VERSION",
     "CheckReport",
