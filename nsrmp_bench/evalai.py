@@ -45,6 +45,7 @@ from nsrmp_bench.scoring.check import check_submission
 from nsrmp_bench.scoring.metrics import METRICS
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
+from nsrmp_bench.storage.contained import plain_name
 from nsrmp_bench.storage.manifest import MANIFEST_NAME, Manifest, read_manifest
 
 __all__ = [
@@ -200,10 +201,9 @@ def _unpacked(annotation: Path) -> Path:
     try:
         with zipfile.ZipFile(annotation) as z:
             for name in z.namelist():
-                if "/" in name or name.startswith("."):
-                    msg = (f"annotation file {annotation} holds {name!r}; it holds one part's "
-                           "files only (manifest.json and shards), as the bundle wrote it")
-                    raise InvalidArgument(msg)
+                plain_name(name, what=f"annotation file {annotation}: the member",
+                           fix="it holds one part's files only (manifest.json and shards), "
+                               "as the bundle wrote it: upload that file")
             z.extractall(staging)
     except zipfile.BadZipFile as exc:
         shutil.rmtree(staging, ignore_errors=True)
