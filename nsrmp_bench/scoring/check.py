@@ -23,15 +23,15 @@ import numpy as np
 from nsrmp_bench.errors import InvalidArgument, NSRMPError, SubmissionError
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.scoring.align import align, split_matches
-from nsrmp_bench.scoring.gold import load_gold
+from nsrmp_bench.scoring.gold import GoldTable, load_gold
 from nsrmp_bench.scoring.protocol_fields import (
     PROTOCOL_KEYS,
     ProtocolFields,
     manifest_mismatch,
     part_root_hash,
 )
-from nsrmp_bench.scoring.reader import read_submission_pending
-from nsrmp_bench.scoring.scorer import Data
+from nsrmp_bench.scoring.reader import claimed_split, read_submission_pending
+from nsrmp_bench.scoring.scorer import Data, gold_limits
 from nsrmp_bench.scoring.submission import Submission, SubmissionHeader
 from nsrmp_bench.scoring.validate import Problems
 from nsrmp_bench.split_specs import load_split
@@ -93,8 +93,13 @@ def check_submission(
     data: Data | None = None,
     unknown_ids: str = "error",
 ) -> CheckReport:
-    """Check a predictions file; raise :class:`SubmissionError` naming every problem."""
-    sub, pending = read_submission_pending(path)
+    """Check a predictions file; raise :class:`SubmissionError` naming every problem.
+
+    The file is read within the bounds of its part: the data's when given, else the
+    committed manifest's (:mod:`~nsrmp_bench.scoring.read_limits`)."""
+    gold = _gold_of_claimed_part(path, split, data)
+    sub, pending = read_submission_pending(
+        path, limits=None if gold is None else gold_limits(gold, unknown_ids))
     if split is not None and not split_matches(split, sub.header.split):
         msg = (
             f"{sub.source}: the header says split {sub.header.split!r}, but you are checking it "
@@ -122,10 +127,26 @@ def check_submission(
         pending.raise_if_any()
         return CheckReport(sub.source, sub.header, len(sub), False, counts,
                            against_manifest=name, protocol=protocol)
-    gold = load_gold(data, split=split, part=part_of_split(sub.header.split))
+    if gold is None:  # the same header: the part read above, when there was one
+        gold = load_gold(data, split=split, part=part_of_split(sub.header.split))
     table = align(sub, gold, unknown_ids=unknown_ids, pending=pending)
     return CheckReport(sub.source, sub.header, len(sub), True, table.counts, table.warnings,
                        protocol=protocol)
+
+
+def _gold_of_claimed_part(path: str | Path, split: str | None, data: Data | None
+                          ) -> GoldTable | None:
+    """The gold of the part the file's header names, when data is given and holds it (its
+    instances bound the reading); None otherwise (the reading then names the problem)."""
+    if data is None:
+        return None
+    claimed = claimed_split(path)
+    if claimed is None:
+        return None
+    try:
+        return load_gold(data, split=split, part=part_of_split(claimed))
+    except NSRMPError:
+        return None
 
 
 def _part_root_hash(split: str, data: Data | None) -> str | None:

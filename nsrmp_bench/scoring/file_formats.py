@@ -9,6 +9,11 @@
 
 Reading is lenient (any name that is neither Parquet nor gzip is read as JSON Lines);
 writing takes only these suffixes, so a typo never writes a file the reader misreads.
+
+Reading is bounded (:func:`read_jsonl_bounded`, :mod:`~nsrmp_bench.scoring.read_limits`): the
+text is read and decompressed a chunk at a time, and the file is refused the moment it
+passes its part's lines, a line's bytes or the file's bytes, so a gzip bomb costs no more
+than a valid file of the part.
 """
 
 from __future__ import annotations
@@ -19,11 +24,15 @@ import zlib
 from pathlib import Path
 
 from nsrmp_bench.errors import InvalidArgument, SubmissionError
+from nsrmp_bench.scoring.read_limits import HEADER_BYTES, ReadLimits
 from nsrmp_bench.storage.atomic import atomic_write_bytes
 
 __all__ = ["GZIP_LEVEL", "PredictionsFormat", "compress_jsonl", "decompress_jsonl",
-           "first_line", "predictions_format", "read_jsonl_bytes", "write_jsonl_bytes",
-           "written_format"]
+           "first_line", "predictions_format", "read_jsonl_bounded", "read_jsonl_bytes",
+           "write_jsonl_bytes", "written_format"]
+
+CHUNK = 1024 * 1024
+"""Bytes read (decompressed) at a time by the bounded reader."""
 
 GZIP_LEVEL = 9
 """zlib's compression level of a written ``.jsonl.gz`` file."""
@@ -89,20 +98,114 @@ def read_jsonl_bytes(path: str | Path) -> bytes:
     return data
 
 
+def _too_long_header(path: Path) -> SubmissionError:
+    return SubmissionError(
+        f"predictions file {str(path)!r}: its first line (the header) is longer than "
+        f"{HEADER_BYTES} bytes; expected one header object of at most that size: write the "
+        "header alone on the first line")
+
+
 def first_line(path: str | Path) -> bytes:
     """The first line of a ``.jsonl`` or ``.jsonl.gz`` file (its header), without reading
-    the rest."""
+    the rest; a first line over :data:`~nsrmp_bench.scoring.read_limits.HEADER_BYTES` is a
+    :class:`SubmissionError`."""
     p = Path(path)
     try:
         if predictions_format(p) is PredictionsFormat.JSONL_GZ:
             with gzip.open(p, "rb") as fh:
-                return fh.readline().rstrip(b"\r\n")
-        with p.open("rb") as fh:
-            return fh.readline().rstrip(b"\r\n")
+                line = fh.readline(HEADER_BYTES + 1)
+        else:
+            with p.open("rb") as fh:
+                line = fh.readline(HEADER_BYTES + 1)
+        if len(line) > HEADER_BYTES:
+            raise _too_long_header(p)
+        return line.rstrip(b"\r\n")
     except (OSError, EOFError, zlib.error) as exc:
-        msg = (f"predictions file {str(p)!r} cannot be read ({exc}); pass a .jsonl, .jsonl.gz "
-               "or .parquet predictions file")
-        raise SubmissionError(msg) from exc
+        raise _unreadable(p, exc) from exc
+
+
+def _unreadable(path: Path, exc: BaseException) -> SubmissionError:
+    if predictions_format(path) is PredictionsFormat.JSONL_GZ:
+        return SubmissionError(
+            f"predictions file {str(path)!r} is named .gz but is not a complete gzip stream "
+            f"({exc}); compress it with `gzip -k FILE.jsonl`, or pass the uncompressed .jsonl")
+    return SubmissionError(
+        f"predictions file {str(path)!r} cannot be read ({exc}); pass a readable .jsonl, "
+        ".jsonl.gz or .parquet predictions file")
+
+
+def _past(path: Path, limits: ReadLimits, what: str) -> SubmissionError:
+    return SubmissionError(
+        f"predictions file {str(path)!r} {what}, more than a file for "
+        f"{limits.describe()} can hold; reading stopped there. Write one line per instance "
+        "after the header (boxes, program, points only), or check that the file is the one "
+        "made for this part")
+
+
+class _Bound:
+    """Counts what a chunked read has seen and refuses it the moment a bound is passed."""
+
+    def __init__(self, path: Path, limits: ReadLimits) -> None:
+        self.path, self.limits = path, limits
+        self.total = 0
+        self.lines = 0
+        self.tail = 0  # bytes of the line not yet ended
+        self.first = True
+
+    def feed(self, chunk: bytes) -> None:
+        limits = self.limits
+        self.total += len(chunk)
+        if self.total > limits.file_bytes:
+            raise _past(self.path, limits, f"holds more than {limits.file_bytes} bytes of "
+                        "text")
+        end = chunk.rfind(b"\n")
+        if end < 0:
+            self.tail += len(chunk)
+        else:
+            pieces = chunk[:end].split(b"\n")
+            pieces[0] = b"x" * (self.tail + len(pieces[0]))  # the line begun before
+            self._lines(pieces)
+            self.tail = len(chunk) - end - 1
+        if self.tail > limits.line_bytes:
+            raise _past(self.path, limits, f"has a line longer than {limits.line_bytes} bytes "
+                        f"(line {self.lines + 1})")
+
+    def _lines(self, pieces: list[bytes]) -> None:
+        limits = self.limits
+        longest = max(map(len, pieces))
+        if self.first and len(pieces[0]) > HEADER_BYTES:
+            raise _too_long_header(self.path)
+        self.first = False
+        if longest > limits.line_bytes:
+            raise _past(self.path, limits, f"has a line longer than {limits.line_bytes} bytes")
+        self.lines += len(pieces) - pieces.count(b"") - pieces.count(b"\r")
+        if self.lines > limits.lines:
+            raise _past(self.path, limits, f"holds more than {limits.lines} lines (one per "
+                        "instance and the header)")
+
+    def close(self) -> None:
+        if self.tail:
+            self._lines([b"x" * self.tail])
+
+
+def read_jsonl_bounded(path: str | Path, limits: ReadLimits) -> bytes:
+    """The JSON Lines text of a ``.jsonl`` or ``.jsonl.gz`` file, read (and decompressed) a
+    chunk at a time and refused with a :class:`SubmissionError` the moment it passes
+    ``limits``: memory and time stay those of a valid file of the part."""
+    p = Path(path)
+    bound = _Bound(p, limits)
+    chunks: list[bytes] = []
+    gz = predictions_format(p) is PredictionsFormat.JSONL_GZ
+    try:
+        with p.open("rb") as raw:
+            fh = gzip.GzipFile(fileobj=raw, mode="rb") if gz else raw
+            while chunk := fh.read(CHUNK):
+                bound.feed(chunk)
+                chunks.append(chunk)
+    except (OSError, EOFError, zlib.error) as exc:
+        raise _unreadable(p, exc) from exc
+    bound.close()
+    return b"".join(chunks)
 
 
 def write_jsonl_bytes(path: str | Path, text: bytes) -> Path:
