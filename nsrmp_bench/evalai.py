@@ -41,7 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from nsrmp_bench import errors
+import nsrmp_bench.errors as error_classes
 from nsrmp_bench._optional import require
 from nsrmp_bench._version import __version__
 from nsrmp_bench.errors import (
@@ -269,10 +269,11 @@ def evaluate_phase(test_annotation_file: str | os.PathLike[str],
     ``phases`` is the bundle's ``phases.json``. A submission the checks refuse (another
     split, another manifest, malformed lines, a file past its part's bounds) raises
     :class:`SubmissionError` naming the problems, which EvalAI shows the participant. The
-    evaluation runs in a child process (:mod:`nsrmp_bench.evalai_child`) stopped after
-    ``time_limit_s`` seconds, which is then a :class:`ResourceLimit`.
+    evaluation runs in a child process (``python -m nsrmp_bench.evalai``, :func:`_child`)
+    stopped after ``time_limit_s`` seconds, which is then a :class:`ResourceLimit`; an
+    error of the package there is raised here with its class and message.
     """
-    command = [sys.executable, "-m", "nsrmp_bench.evalai_child", str(test_annotation_file),
+    command = [sys.executable, "-m", "nsrmp_bench.evalai", str(test_annotation_file),
                str(user_submission_file), phase_codename, json.dumps(dict(phases))]
     try:
         done = subprocess.run(command, capture_output=True, text=True, timeout=time_limit_s,
@@ -291,7 +292,7 @@ def evaluate_phase(test_annotation_file: str | os.PathLike[str],
         result: dict[str, Any] = outcome["result"]
         return result
     if "error" in outcome:
-        cls = getattr(errors, str(outcome["error"]), SubmissionError)
+        cls = getattr(error_classes, str(outcome["error"]), SubmissionError)
         raise (cls if isinstance(cls, type) and issubclass(cls, NSRMPError)
                else SubmissionError)(str(outcome["message"]))
     msg = (f"scoring {user_submission_file} for phase {phase_codename!r} failed in its "
@@ -484,3 +485,21 @@ def _config(title: str, parts: list[ChallengePart], start: str, end: str) -> dic
              "is_leaderboard_order_descending": _HIGHER_IS_BETTER}
             for n, p in enumerate(parts, 1)],
     }
+
+
+def _child(argv: list[str]) -> int:
+    """The child process of :func:`evaluate_phase`: evaluates ``argv = [annotation,
+    submission, phase, phases as JSON]`` and prints one JSON object, ``{"result": ...}`` or
+    ``{"error": class name, "message": ...}`` for an error of the package."""
+    annotation, submission, phase, phases = argv
+    try:
+        out = evaluate_in_process(annotation, submission, phase, json.loads(phases))
+    except NSRMPError as exc:
+        print(json.dumps({"error": type(exc).__name__, "message": str(exc)}))
+        return 2
+    print(json.dumps({"result": out}))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(_child(sys.argv[1:]))
