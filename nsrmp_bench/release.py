@@ -23,7 +23,7 @@ from nsrmp_bench.canonical import sha256_file
 from nsrmp_bench.errors import DownloadError, InvalidArgument
 from nsrmp_bench.official_manifests import official_manifest, official_manifest_text
 from nsrmp_bench.split_specs import list_splits, load_split
-from nsrmp_bench.storage.atomic import atomic_write_text
+from nsrmp_bench.storage.atomic import atomic_path, atomic_write_text
 from nsrmp_bench.storage.contained import inside
 from nsrmp_bench.storage.inputs_only import strip_part
 from nsrmp_bench.storage.manifest import read_manifest
@@ -73,8 +73,9 @@ def pack(data_dir: str | os.PathLike[str], out: str | os.PathLike[str], *,
         if inputs_only:
             strip_part(part_dir, dest)
         for name in [s.file for s in manifest.shards] + ["manifest.json"]:
-            if not inputs_only:
-                shutil.copyfile(part_dir / name, dest / name)
+            if not inputs_only:  # through a temporary name: a full disk leaves no shard
+                with atomic_path(dest / name) as tmp:
+                    shutil.copyfile(part_dir / name, tmp)
             size = (dest / name).stat().st_size
             entries.append(RegistryEntry(f"{part}/{name}", sha256_file(dest / name), size))
     if split_id is None:
