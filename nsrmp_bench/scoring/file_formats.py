@@ -143,13 +143,18 @@ def _past(path: Path, limits: ReadLimits, what: str) -> SubmissionError:
 
 
 class _Bound:
-    """Counts what a chunked read has seen and refuses it the moment a bound is passed."""
+    """Counts what a chunked read has seen and refuses it the moment a bound is passed.
+
+    A line is blank when it is empty or a lone ``\\r``; blank lines are not counted as
+    lines, but their bytes are. The line not yet ended is kept as its length (and its first
+    two bytes, to tell a lone ``\\r``), never as a copy."""
 
     def __init__(self, path: Path, limits: ReadLimits) -> None:
         self.path, self.limits = path, limits
         self.total = 0
         self.lines = 0
         self.tail = 0  # bytes of the line not yet ended
+        self.tail_head = b""  # its first two bytes
         self.first = True
 
     def feed(self, chunk: bytes) -> None:
@@ -159,39 +164,52 @@ class _Bound:
             raise _past(self.path, limits, f"holds more than {limits.file_bytes} bytes of "
                         "text")
         end = chunk.rfind(b"\n")
-        if end < 0:
-            self.tail += len(chunk)
-        else:
+        if end >= 0:
             pieces = chunk[:end].split(b"\n")
-            pieces[0] = b"x" * (self.tail + len(pieces[0]))  # the line begun before
-            self._lines(pieces)
-            self.tail = len(chunk) - end - 1
+            first = pieces[0]
+            n = self.tail + len(first)
+            self._line(n, n == 0 or (n == 1 and self.tail_head + first == b"\r"))
+            rest = pieces[1:]
+            if rest:
+                if max(map(len, rest)) > limits.line_bytes:
+                    raise _past(self.path, limits,
+                                f"has a line longer than {limits.line_bytes} bytes")
+                self._count(len(rest) - rest.count(b"") - rest.count(b"\r"))
+            self.tail, self.tail_head = 0, b""
+            chunk = chunk[end + 1:]
+        if self.tail < 2:
+            self.tail_head = (self.tail_head + chunk[:2])[:2]
+        self.tail += len(chunk)
         if self.tail > limits.line_bytes:
             raise _past(self.path, limits, f"has a line longer than {limits.line_bytes} bytes "
                         f"(line {self.lines + 1})")
 
-    def _lines(self, pieces: list[bytes]) -> None:
-        limits = self.limits
-        longest = max(map(len, pieces))
-        if self.first and len(pieces[0]) > HEADER_BYTES:
+    def _line(self, n: int, blank: bool) -> None:
+        """One whole line of ``n`` bytes."""
+        if self.first and n > HEADER_BYTES:
             raise _too_long_header(self.path)
         self.first = False
-        if longest > limits.line_bytes:
-            raise _past(self.path, limits, f"has a line longer than {limits.line_bytes} bytes")
-        self.lines += len(pieces) - pieces.count(b"") - pieces.count(b"\r")
-        if self.lines > limits.lines:
-            raise _past(self.path, limits, f"holds more than {limits.lines} lines (one per "
-                        "instance and the header)")
+        if n > self.limits.line_bytes:
+            raise _past(self.path, self.limits,
+                        f"has a line longer than {self.limits.line_bytes} bytes")
+        self._count(0 if blank else 1)
+
+    def _count(self, lines: int) -> None:
+        self.lines += lines
+        if self.lines > self.limits.lines:
+            raise _past(self.path, self.limits, f"holds more than {self.limits.lines} lines "
+                        "(one per instance and the header)")
 
     def close(self) -> None:
+        """The end of the file: the last line, when it has no newline."""
         if self.tail:
-            self._lines([b"x" * self.tail])
+            self._line(self.tail, self.tail == 1 and self.tail_head == b"\r")
 
 
-def read_jsonl_bounded(path: str | Path, limits: ReadLimits) -> bytes:
-    """The JSON Lines text of a ``.jsonl`` or ``.jsonl.gz`` file, read (and decompressed) a
-    chunk at a time and refused with a :class:`SubmissionError` the moment it passes
-    ``limits``: memory and time stay those of a valid file of the part."""
+def read_jsonl_bounded(path: str | Path, limits: ReadLimits, *, chunk: int = CHUNK) -> bytes:
+    """The JSON Lines text of a ``.jsonl`` or ``.jsonl.gz`` file, read (and decompressed)
+    ``chunk`` bytes at a time and refused with a :class:`SubmissionError` the moment it
+    passes ``limits``: memory and time stay those of a valid file of the part."""
     p = Path(path)
     bound = _Bound(p, limits)
     chunks: list[bytes] = []
@@ -199,9 +217,9 @@ def read_jsonl_bounded(path: str | Path, limits: ReadLimits) -> bytes:
     try:
         with p.open("rb") as raw:
             fh = gzip.GzipFile(fileobj=raw, mode="rb") if gz else raw
-            while chunk := fh.read(CHUNK):
-                bound.feed(chunk)
-                chunks.append(chunk)
+            while piece := fh.read(chunk):
+                bound.feed(piece)
+                chunks.append(piece)
     except (OSError, EOFError, zlib.error) as exc:
         raise _unreadable(p, exc) from exc
     bound.close()
