@@ -80,3 +80,27 @@ def test_score_refuses_another_manifest_unless_asked(
     assert main(["score", str(same), "--data", str(part), "--n-boot", "0", "--quiet"]) == 0
     header = json.loads(same.read_text().splitlines()[0])["header"]
     assert header["protocol"]["manifest_root_hash"] == read_manifest(part).root_hash
+
+
+def test_check_submission_against_an_inputs_only_pack(
+    part: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from nsrmp_bench.release import pack
+
+    pack(part, tmp_path / "release", inputs_only=True)
+    held = tmp_path / "release" / "smoke-v2" / "test"
+    good = _noop(part, tmp_path / "noop.jsonl")
+    assert main(["check-submission", str(good), "--split", "smoke-v2/test",
+                 "--data", str(held)]) == 0
+    assert "checked against the inputs-only pack" in capsys.readouterr().out
+    lines = good.read_text().splitlines()
+    record = json.loads(lines[1])
+    record["boxes"][0] = [0.0, 0.0, 400.0, 10.0]
+    outside = tmp_path / "outside.jsonl"
+    outside.write_text("\n".join([lines[0], json.dumps(record), *lines[2:]]) + "\n")
+    other = _noop(part, tmp_path / "other.jsonl", root_hash="cd" * 32)
+    for bad, said in ((outside, "lies outside the"), (other, "made on another manifest")):
+        assert main(["check-submission", str(bad), "--split", "smoke-v2/test",
+                     "--data", str(held)]) == 2
+        err = capsys.readouterr().err
+        assert said in err and "Traceback" not in err
