@@ -219,3 +219,22 @@ def test_an_evaluation_past_its_time_limit_is_stopped(
     with pytest.raises(ResourceLimit, match=r"took longer than 0.01 s and was stopped"):
         evaluate_phase(bundle / "annotations" / "public-test.zip", predictions, "public-test",
                        phases, time_limit_s=0.01)
+
+
+def test_a_gzip_bomb_is_refused_by_the_evaluator_at_its_parts_bound(
+        made: tuple[Path, Path, Path], tmp_path: Path) -> None:
+    import gzip
+    import zlib
+
+    from nsrmp_bench.errors import SubmissionError
+    from nsrmp_bench.evalai import evaluate_phase
+
+    bundle, public, _ = made
+    phases = json.loads((bundle / "evaluation_script" / "phases.json").read_text())
+    header = json.loads(_noop(public, tmp_path / "noop.jsonl").read_text().splitlines()[0])
+    member = zlib.compressobj(9, zlib.DEFLATED, 31)
+    one = member.compress(b"\n" * (16 << 20)) + member.flush()
+    bomb = tmp_path / "bomb.jsonl.gz"  # 2 MB, 2 GiB of newlines after the header
+    bomb.write_bytes(gzip.compress((json.dumps(header) + "\n").encode(), mtime=0) + one * 128)
+    with pytest.raises(SubmissionError, match="reading stopped there"):
+        evaluate_phase(bundle / "annotations" / "public-test.zip", bomb, "public-test", phases)
