@@ -12,7 +12,7 @@ from __future__ import annotations
 import errno
 import re
 
-__all__ = ["disk_fault"]
+__all__ = ["DISK_FAULT_ERRNOS", "disk_fault"]
 
 _FIXES = {
     errno.ENOSPC: ("the disk is full", "free space there, or write to another disk"),
@@ -25,7 +25,10 @@ _FIXES = {
                    "permissions"),
     errno.EPERM: ("the operation is not permitted", "choose a folder you may write"),
 }
+DISK_FAULT_ERRNOS = frozenset(_FIXES)
+"""The errno values :func:`disk_fault` has a sentence for."""
 _ERRNO_IN_TEXT = re.compile(r"errno = (\d+)|\[Errno (\d+)\]")
+_FILENAME_IN_TEXT = re.compile(r"filename = '([^']+)'")
 
 
 def _errno_of(exc: OSError) -> int | None:
@@ -46,7 +49,8 @@ def disk_fault(exc: BaseException) -> str | None:
     if code not in _FIXES:
         return None
     what, fix = _FIXES[code]
-    where = exc.filename if exc.filename else "a file"
+    named = _FILENAME_IN_TEXT.search(str(exc))  # h5py names the file in its text only
+    where = exc.filename or (named.group(1) if named else "a file of this command")
     return (f"could not write {str(where)!r}: {what} ({errno.errorcode.get(code, code)}); "
             f"nothing was left half-written under its final name: {fix}, then run the same "
             "command again")

@@ -154,3 +154,16 @@ def test_six_writers_of_one_file_leave_one_whole_file(tmp_path: Path) -> None:
     assert not errors
     assert out.read_text() in texts
     assert not list(tmp_path.glob("*.tmp"))
+
+
+@pytest.mark.sim
+def test_generate_onto_a_full_disk_is_a_sentence_naming_the_shard(
+    full_disk: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (full_disk / "filler").unlink()  # room to start, not to finish a shard
+    for workers in ("1", "2"):  # the writer process, and a worker of the pool
+        assert main(["generate", "--split", "smoke-v2", "--out", str(full_disk / "smoke"),
+                     "--workers", workers, "--quiet"]) == 2
+        _said(capsys, "shard-0000000-0000016.h5", "the disk is full")
+        assert not list(full_disk.rglob("*.h5")) and not list(full_disk.rglob("*.tmp"))
+        assert not list(full_disk.rglob(LOCK_NAME))
