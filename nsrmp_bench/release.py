@@ -171,8 +171,15 @@ def download(
     if official:  # the committed manifests are the registry: write them as they are
         for part in load_split(split_id).parts:
             text = official_manifest_text(split_id, part)
-            if text is not None:
-                atomic_write_text(out_dir / part / "manifest.json", text)
+            local = out_dir / part / "manifest.json"
+            if text is None or (local.is_file() and local.read_text("utf-8") == text):
+                continue
+            if local.exists() and not overwrite:
+                msg = (f"{str(local)!r} exists and differs from the committed manifest of "
+                       f"{split_id}/{part}; it was kept: move it away, download into another "
+                       "folder, or pass --overwrite to replace it")
+                raise DownloadError(msg)
+            atomic_write_text(local, text)
     return files
 
 
