@@ -29,6 +29,7 @@ from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.generators.sampler import AttemptLog, first_valid, sample_symbolic
 from nsrmp_bench.private_parts import bind_secret, commitment_record
 from nsrmp_bench.split_specs import SplitSpec, load_split, resolve_split
+from nsrmp_bench.storage.folder_lock import folder_lock
 from nsrmp_bench.storage.layout import DATA_WRITER_VERSION
 from nsrmp_bench.storage.manifest import Manifest
 from nsrmp_bench.storage.records import ShardRecord
@@ -229,13 +230,27 @@ def generate_part(
     The shards still missing go to ``engine`` (entered by the caller), by default the local
     one with ``workers`` processes; the manifest is written here once all are complete.
     A private part needs its ``secret`` (:mod:`nsrmp_bench.private_parts`): it is never
-    written; the manifest holds the commitment to it.
+    written; the manifest holds the commitment to it. One writer per folder: a second
+    ``generate_part`` into ``out_dir`` while one runs is refused
+    (:mod:`nsrmp_bench.storage.folder_lock`).
     """
     private = _private_record(spec, part, secret)
     spec = bind_secret(spec, secret)
     count = spec.part(part).count if limit is None else min(limit, spec.part(part).count)
     out = Path(out_dir).resolve()
     out.mkdir(parents=True, exist_ok=True)
+    with folder_lock(out, "generate"):
+        return _generate_locked(spec, part, out, count, private, workers=workers,
+                                engine=engine, shard_size=shard_size,
+                                on_progress=on_progress, on_start=on_start)
+
+
+def _generate_locked(
+    spec: SplitSpec, part: str, out: Path, count: int, private: dict[str, str] | None, *,
+    workers: int, engine: Engine | None, shard_size: int,
+    on_progress: ProgressCallback | None, on_start: Callable[[int, int], None] | None,
+) -> tuple[Manifest, AttemptLog]:
+    """:func:`generate_part`'s work, with the folder's lock held (one writer per part)."""
     (out / "manifest.json").unlink(missing_ok=True)
     if private is not None:
         _same_commitment(out, private)

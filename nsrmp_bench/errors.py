@@ -21,9 +21,11 @@ __all__ = [
     "MissingExtra",
     "NSRMPError",
     "ResetNeeded",
+    "ResourceLimit",
     "SchemaVersionError",
     "SubmissionError",
     "UnknownId",
+    "UnsafePath",
 ]
 
 
@@ -60,6 +62,16 @@ class InfeasibleStep(NSRMPError):
 
 class GenerationError(NSRMPError):
     """Generation could not produce a valid instance within its bounded number of tries."""
+
+
+class UnsafePath(NSRMPError, ValueError):
+    """A path that arrived from outside (a registry, an archive, a leaderboard entry) is
+    absolute, climbs out with ``..`` or leads out through a link: refused, nothing written."""
+
+
+class ResourceLimit(NSRMPError):
+    """An input passed a bound set by what it claims to be (lines, bytes, time), or the
+    machine ran out of a resource (disk full, read-only folder, a second writer)."""
 
 
 class SchemaVersionError(NSRMPError):

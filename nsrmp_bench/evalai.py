@@ -9,6 +9,9 @@ zip" takes, with what participants download beside it::
     OUT/evaluation_script/__init__.py  ``evaluate(test_annotation_file, user_submission_file,
     OUT/evaluation_script/main.py        phase_codename, **kwargs)``: EvalAI's entry point
     OUT/evaluation_script/phases.json  phase codename -> split codename, part, root hash
+    OUT/evaluation_script/requirements.txt  nsrmp-bench pinned (by the wheel's sha256 with
+                                       ``--wheel``), installed before the challenge opens:
+                                       nothing is installed at evaluation time
     OUT/evaluation_script.zip          the same folder zipped (what the config names)
     OUT/annotations/<phase>.zip        each phase's gold part (manifest + shards): EvalAI
                                        keeps it on its workers, never shows it
@@ -29,6 +32,8 @@ import json
 import math
 import os
 import shutil
+import subprocess
+import sys
 import tempfile
 import zipfile
 from collections.abc import Mapping
@@ -36,22 +41,32 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import nsrmp_bench.errors as error_classes
 from nsrmp_bench._optional import require
 from nsrmp_bench._version import __version__
-from nsrmp_bench.errors import InvalidArgument, SubmissionError
+from nsrmp_bench.errors import (
+    DataIntegrityError,
+    InvalidArgument,
+    NSRMPError,
+    ResourceLimit,
+    SubmissionError,
+)
 from nsrmp_bench.leaderboard import COLUMNS
 from nsrmp_bench.release import pack
 from nsrmp_bench.scoring.check import check_submission
 from nsrmp_bench.scoring.metrics import METRICS_V2
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
+from nsrmp_bench.storage.contained import plain_name
 from nsrmp_bench.storage.manifest import MANIFEST_NAME, Manifest, read_manifest
 
 __all__ = [
+    "EVALUATION_TIME_LIMIT_S",
     "PHASES_FILE",
     "PRIVATE_PHASE",
     "PUBLIC_PHASE",
     "ChallengePart",
+    "evaluate_in_process",
     "evaluate_phase",
     "figures",
     "leaderboard_schema",
@@ -61,6 +76,9 @@ __all__ = [
 PUBLIC_PHASE = "public-test"
 PRIVATE_PHASE = "private-test"
 PHASES_FILE = "phases.json"
+REQUIREMENTS_FILE = "requirements.txt"
+EVALUATION_TIME_LIMIT_S = 600.0
+"""Seconds one evaluation may take before it is stopped (paper-v2/test scores in seconds)."""
 _SPLIT_CODENAMES = {PUBLIC_PHASE: "public_test", PRIVATE_PHASE: "private_test"}
 _LABELS = {m.name: m.label for m in METRICS_V2}
 _HIGHER_IS_BETTER = True  # every leaderboard column is a score, IoU-M first
@@ -159,51 +177,72 @@ _MAIN = '''"""Score a submission with the public nsrmp-bench scorer.
 
 EvalAI calls ``evaluate(test_annotation_file, user_submission_file, phase_codename,
 **kwargs)``; this runs ``nsrmp_bench.evalai.evaluate_phase`` (the same scorer as
-``nsrmp-bench score``). The worker needs nsrmp-bench {version}: it is installed here from
-the package index when missing.
+``nsrmp-bench score``). The worker must have nsrmp-bench {version} installed beforehand
+(``requirements.txt`` beside this file pins it): nothing is installed at evaluation time.
 """
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
-REQUIREMENT = "nsrmp-bench=={version}"
+VERSION = "{version}"
 PHASES = json.loads((Path(__file__).parent / "{phases}").read_text("utf-8"))
 
 
-def _ensure_scorer():
+def _scorer():
     try:
-        import nsrmp_bench.evalai  # noqa: F401
-    except ImportError:
-        subprocess.check_call([sys.executable, "-m", "pip", "install", REQUIREMENT])
+        import nsrmp_bench
+    except ImportError as exc:
+        raise RuntimeError(
+            f"nsrmp-bench {{VERSION}} is not installed on this worker; install it before "
+            f"the challenge opens: pip install -r requirements.txt") from exc
+    if nsrmp_bench.__version__ != VERSION:
+        raise RuntimeError(
+            f"this worker has nsrmp-bench {{nsrmp_bench.__version__}}, but the challenge is "
+            f"scored with {{VERSION}}; install the pinned one: pip install -r requirements.txt")
+    from nsrmp_bench.evalai import evaluate_phase
+
+    return evaluate_phase
 
 
 def evaluate(test_annotation_file, user_submission_file, phase_codename, **kwargs):
-    _ensure_scorer()
-    from nsrmp_bench.evalai import evaluate_phase
-
+    evaluate_phase = _scorer()
     print(f"nsrmp-bench: scoring {{user_submission_file}} for phase {{phase_codename}}")
     return evaluate_phase(test_annotation_file, user_submission_file, phase_codename, PHASES)
 '''
 
 
+def _same_manifest(folder: Path, annotation: Path) -> bool:
+    """Whether the unpacked ``folder``'s manifest is byte for byte the annotation's (the
+    shards are then checked against it when the gold is loaded)."""
+    try:
+        with zipfile.ZipFile(annotation) as z:
+            return z.read(MANIFEST_NAME) == (folder / MANIFEST_NAME).read_bytes()
+    except (OSError, KeyError, zipfile.BadZipFile):
+        return False
+
+
 def _unpacked(annotation: Path) -> Path:
     """The phase's gold part unpacked (once per worker, in the temporary folder, named by
-    the annotation file's sha256)."""
+    the annotation file's sha256). A cached folder is reused only when its manifest is the
+    annotation's; its shards are checked against that manifest when scored, so a tampered
+    cache is refused, not scored."""
     digest = hashlib.sha256(annotation.read_bytes()).hexdigest()[:24]
     folder = Path(tempfile.gettempdir()) / "nsrmp-bench-annotations" / digest
     if (folder / MANIFEST_NAME).is_file():
-        return folder
+        if _same_manifest(folder, annotation):
+            return folder
+        msg = (f"the cached gold {folder} of annotation file {annotation} holds another "
+               f"{MANIFEST_NAME} than the annotation file; it was changed on this worker: "
+               "remove the folder (it is unpacked again) and check who can write there")
+        raise DataIntegrityError(msg)
     folder.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f"{digest}-", dir=folder.parent))
     try:
         with zipfile.ZipFile(annotation) as z:
             for name in z.namelist():
-                if "/" in name or name.startswith("."):
-                    msg = (f"annotation file {annotation} holds {name!r}; it holds one part's "
-                           "files only (manifest.json and shards), as the bundle wrote it")
-                    raise InvalidArgument(msg)
+                plain_name(name, what=f"annotation file {annotation}: the member",
+                           fix="it holds one part's files only (manifest.json and shards), "
+                               "as the bundle wrote it: upload that file")
             z.extractall(staging)
     except zipfile.BadZipFile as exc:
         shutil.rmtree(staging, ignore_errors=True)
@@ -222,15 +261,50 @@ def _unpacked(annotation: Path) -> Path:
 
 def evaluate_phase(test_annotation_file: str | os.PathLike[str],
                    user_submission_file: str | os.PathLike[str], phase_codename: str,
-                   phases: Mapping[str, Any]) -> dict[str, Any]:
+                   phases: Mapping[str, Any], *,
+                   time_limit_s: float = EVALUATION_TIME_LIMIT_S) -> dict[str, Any]:
     """EvalAI's result object for one submission: ``{"result": [{split: figures}],
     "submission_result": figures, "submission_metadata": {"scorer": ...}}`` with
     :func:`figures` of the public scorer's result and the scorer that made them.
 
     ``phases`` is the bundle's ``phases.json``. A submission the checks refuse (another
-    split, another manifest, malformed lines) raises :class:`SubmissionError` naming the
-    problems, which EvalAI shows the participant.
+    split, another manifest, malformed lines, a file past its part's bounds) raises
+    :class:`SubmissionError` naming the problems, which EvalAI shows the participant. The
+    evaluation runs in a child process (``python -m nsrmp_bench.evalai``, :func:`_child`)
+    stopped after ``time_limit_s`` seconds, which is then a :class:`ResourceLimit`; an
+    error of the package there is raised here with its class and message.
     """
+    command = [sys.executable, "-m", "nsrmp_bench.evalai", str(test_annotation_file),
+               str(user_submission_file), phase_codename, json.dumps(dict(phases))]
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=time_limit_s,
+                              check=False)
+    except subprocess.TimeoutExpired as exc:
+        msg = (f"scoring {user_submission_file} for phase {phase_codename!r} took longer than "
+               f"{time_limit_s:g} s and was stopped; a valid file of the part scores in far "
+               "less: check that the file is the one made for this phase")
+        raise ResourceLimit(msg) from exc
+    lines = done.stdout.strip().splitlines()
+    try:
+        outcome: dict[str, Any] = json.loads(lines[-1]) if lines else {}
+    except json.JSONDecodeError:
+        outcome = {}
+    if "result" in outcome:
+        result: dict[str, Any] = outcome["result"]
+        return result
+    if "error" in outcome:
+        cls = getattr(error_classes, str(outcome["error"]), SubmissionError)
+        raise (cls if isinstance(cls, type) and issubclass(cls, NSRMPError)
+               else SubmissionError)(str(outcome["message"]))
+    msg = (f"scoring {user_submission_file} for phase {phase_codename!r} failed in its "
+           f"process (exit {done.returncode}): {done.stderr.strip()[-2000:]}")
+    raise ResourceLimit(msg)
+
+
+def evaluate_in_process(test_annotation_file: str | os.PathLike[str],
+                        user_submission_file: str | os.PathLike[str], phase_codename: str,
+                        phases: Mapping[str, Any]) -> dict[str, Any]:
+    """:func:`evaluate_phase`'s work, in this process and without a time limit."""
     if phase_codename not in phases:
         msg = (f"phase codename {phase_codename!r} is not one of this challenge's "
                f"{sorted(phases)}; the challenge_config.yaml and phases.json disagree")
@@ -253,6 +327,25 @@ def evaluate_phase(test_annotation_file: str | os.PathLike[str],
     numbers = figures(result)
     return {"result": [{str(phase["split_codename"]): numbers}],
             "submission_result": numbers, "submission_metadata": {"scorer": result.scorer}}
+
+
+def requirements(wheel: str | os.PathLike[str] | None = None) -> str:
+    """The evaluation script's ``requirements.txt``: this version of nsrmp-bench, pinned by
+    the sha256 of ``wheel`` when given (pip then installs nothing else under that name).
+    The worker installs it before the challenge opens; nothing is installed when scoring."""
+    line = f"nsrmp-bench=={__version__}"
+    if wheel is not None:
+        path = Path(wheel)
+        if not path.is_file() or path.suffix != ".whl":
+            msg = (f"--wheel {str(path)!r} is not a wheel file; pass the release's "
+                   f"nsrmp_bench-{__version__}-*.whl (python -m build --wheel)")
+            raise InvalidArgument(msg)
+        line += f" --hash=sha256:{hashlib.sha256(path.read_bytes()).hexdigest()}"
+    return ("# install on the EvalAI worker before the challenge opens: "
+            "pip install --require-hashes -r requirements.txt\n" if wheel is not None else
+            "# install on the EvalAI worker before the challenge opens (pass --wheel to "
+            "`nsrmp-bench challenge` to pin it by hash): pip install -r requirements.txt\n"
+            ) + line + "\n"
 
 
 def _yaml(data: object) -> str:
@@ -303,9 +396,11 @@ def _templates(title: str, parts: list[ChallengePart]) -> dict[str, str]:
 def write_bundle(out: str | os.PathLike[str], public: str | os.PathLike[str],
                  private: str | os.PathLike[str], *, title: str = "nsrmp-bench challenge",
                  start_date: str = "2027-01-01 00:00:00",
-                 end_date: str = "2027-12-31 23:59:59") -> list[Path]:
+                 end_date: str = "2027-12-31 23:59:59",
+                 wheel: str | os.PathLike[str] | None = None) -> list[Path]:
     """Write the EvalAI bundle into ``out`` (see the module doc) from the full ``public``
-    and ``private`` test parts; returns the files written."""
+    and ``private`` test parts; returns the files written. ``wheel`` (the release's wheel
+    file) pins the package by its sha256 in ``requirements.txt``."""
     parts = [_part(PUBLIC_PHASE, public), _part(PRIVATE_PHASE, private)]
     require("yaml")  # before any file is written
     root = Path(out)
@@ -318,6 +413,7 @@ def write_bundle(out: str | os.PathLike[str], public: str | os.PathLike[str],
         script / "__init__.py": _INIT,
         script / "main.py": _MAIN.format(version=__version__, phases=PHASES_FILE),
         script / PHASES_FILE: json.dumps(phases, indent=1, sort_keys=True) + "\n",
+        script / REQUIREMENTS_FILE: requirements(wheel),
     }
     for name, text in _templates(title, parts).items():
         files[root / "templates" / name] = text + "\n"
@@ -331,7 +427,8 @@ def write_bundle(out: str | os.PathLike[str], public: str | os.PathLike[str],
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(text, "utf-8")
         written.append(path)
-    _zip_dir(script, root / "evaluation_script.zip", ["__init__.py", "main.py", PHASES_FILE])
+    _zip_dir(script, root / "evaluation_script.zip",
+             ["__init__.py", "main.py", PHASES_FILE, REQUIREMENTS_FILE])
     written.append(root / "evaluation_script.zip")
     return sorted(written)
 
@@ -389,3 +486,21 @@ def _config(title: str, parts: list[ChallengePart], start: str, end: str) -> dic
              "is_leaderboard_order_descending": _HIGHER_IS_BETTER}
             for n, p in enumerate(parts, 1)],
     }
+
+
+def _child(argv: list[str]) -> int:
+    """The child process of :func:`evaluate_phase`: evaluates ``argv = [annotation,
+    submission, phase, phases as JSON]`` and prints one JSON object, ``{"result": ...}`` or
+    ``{"error": class name, "message": ...}`` for an error of the package."""
+    annotation, submission, phase, phases = argv
+    try:
+        out = evaluate_in_process(annotation, submission, phase, json.loads(phases))
+    except NSRMPError as exc:
+        print(json.dumps({"error": type(exc).__name__, "message": str(exc)}))
+        return 2
+    print(json.dumps({"result": out}))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(_child(sys.argv[1:]))

@@ -8,6 +8,13 @@ the root hash of the part's manifest; :mod:`nsrmp_bench.scoring.protocol_fields`
 :func:`build` scores every entry with the public scorer (:func:`nsrmp_bench.score`, exactly
 as a submitter would) against the split's data and writes one board per split as Markdown
 and JSON. Anyone with the data can rebuild the boards and get the same numbers.
+
+An entry is untrusted (it arrives as a pull request): its ``predictions`` and
+``model_card`` must be relative paths that stay inside the repository holding
+``leaderboards/entries/`` (the entries folder's grandparent), with a predictions file's
+suffix and a ``.md`` card, and the file itself no symbolic link; anything else is refused
+with :class:`~nsrmp_bench.errors.UnsafePath`, so no entry can get another file of the
+maintainer's machine copied into the published site.
 """
 
 from __future__ import annotations
@@ -21,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from nsrmp_bench.canonical import canonical_json
-from nsrmp_bench.errors import InvalidArgument
+from nsrmp_bench.errors import InvalidArgument, UnsafePath
 from nsrmp_bench.ranks import RANK_RULE, shared_ranks
 from nsrmp_bench.scoring.protocol_fields import ProtocolFields, manifest_mismatch, part_root_hash
 from nsrmp_bench.scoring.result import ScoreResult
@@ -40,10 +47,36 @@ COLUMNS = ("iou_m", "iou", "success", "success_strict", "kept_still", "program_e
 ``scorer-v2``'s: what the prediction moved that the instruction leaves in place)."""
 
 
-def _beside(entry_file: Path, relative: str) -> Path:
+_PREDICTION_SUFFIXES = (".jsonl", ".jsonl.gz", ".parquet", ".json", ".ndjson", ".ndjson.gz")
+
+
+def _beside(entry_file: Path, relative: str, key: str) -> Path:
     """``relative`` to the entry file's folder, absolute but with symlinks kept (the site
-    links files by their place beside the entries, not where a link points)."""
-    return Path(os.path.normpath((entry_file.parent / relative).absolute()))
+    links files by their place beside the entries, not where a link points); refused
+    unless it stays inside the repository that holds the entries folder, is no link
+    itself, and has the suffix its ``key`` needs."""
+    repo = Path(os.path.normpath(entry_file.parent.parent.parent.absolute()))
+    where = f"leaderboard entry {entry_file}: {key!r}"
+    if Path(relative).is_absolute() or "\\" in relative:
+        msg = (f"{where} is {relative!r}, an absolute path; expected a path relative to the "
+               "entry file inside the repository (e.g. '../predictions/NAME.jsonl.gz')")
+        raise UnsafePath(msg)
+    path = Path(os.path.normpath((entry_file.parent / relative).absolute()))
+    if not path.is_relative_to(repo):
+        msg = (f"{where} is {relative!r}, which leads to {str(path)!r} outside the repository "
+               f"{str(repo)!r}; commit the file inside it and name it relative to the entry")
+        raise UnsafePath(msg)
+    suffixes = (".md",) if key == "model_card" else _PREDICTION_SUFFIXES
+    if not path.name.lower().endswith(suffixes):
+        msg = (f"{where} is {relative!r}; expected a file ending in {' or '.join(suffixes)}: "
+               "name the entry's " + ("model card (Markdown)" if key == "model_card"
+                                      else "predictions file"))
+        raise UnsafePath(msg)
+    if path.is_symlink():
+        msg = (f"{where} is {relative!r}, a symbolic link (to {os.readlink(path)!r}); commit "
+               "the file itself")
+        raise UnsafePath(msg)
+    return path
 
 
 @dataclass(frozen=True)
@@ -71,13 +104,15 @@ class Entry:
                 name=path.stem,
                 model=str(data["model"]),
                 split=str(data["split"]),
-                predictions=_beside(path, str(data["predictions"])),
+                predictions=_beside(path, str(data["predictions"]), "predictions"),
                 kind=str(data.get("kind", "submission")),
                 description=str(data.get("description", "")),
-                model_card=_beside(path, str(data["model_card"]))
+                model_card=_beside(path, str(data["model_card"]), "model_card")
                 if "model_card" in data else None,
                 card=dict(data.get("card", {})),
             )
+        except UnsafePath:
+            raise
         except (OSError, ValueError, KeyError, TypeError) as exc:
             msg = (
                 f"leaderboard entry {path} is unreadable or lacks a key ({exc}); an entry "

@@ -21,7 +21,9 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import math
 import os
+from collections import Counter
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -33,6 +35,7 @@ from nsrmp_bench.split_specs import SplitSpec
 __all__ = [
     "COMMITMENT_SCHEME",
     "ENTROPY_SCHEME",
+    "MIN_SECRET_BITS",
     "MIN_SECRET_CHARS",
     "SECRET_ENV",
     "bind_secret",
@@ -42,6 +45,7 @@ __all__ = [
     "commitment_record",
     "derived_entropy",
     "read_secret",
+    "secret_bits",
 ]
 
 SECRET_ENV = "NSRMP_BENCH_SECRET"
@@ -50,15 +54,38 @@ ENTROPY_SCHEME = "nsrmp-bench-private-entropy-v1"
 COMMITMENT_SCHEME = "nsrmp-bench-commitment-v1"
 MIN_SECRET_CHARS = 32
 """A secret's least length: 32 hex digits are 128 bits, beyond guessing."""
+MIN_SECRET_BITS = 80
+"""A secret's least estimated entropy (:func:`secret_bits`): 32 random hex digits give
+about 110, a letter repeated 0; a floor against mistakes, not a proof of randomness."""
 _MAKE_ONE = 'python -c "import secrets; print(secrets.token_hex(32))" > secret.txt'
 
 
+def secret_bits(secret: str) -> float:
+    """An upper estimate of a secret's entropy in bits: its length times the empirical
+    Shannon entropy of its characters; a secret that repeats a shorter period (``abab...``)
+    counts as that period alone."""
+    period = next((k for k in range(1, len(secret) // 2 + 1)
+                   if len(secret) % k == 0 and secret[:k] * (len(secret) // k) == secret),
+                  len(secret))
+    unit = secret[:period]
+    counts = Counter(unit)
+    return max(0.0, -sum(n * math.log2(n / len(unit)) for n in counts.values()))
+
+
 def check_secret(secret: str, where: str) -> str:
-    """``secret`` without surrounding white space; a short or empty one is an error."""
+    """``secret`` without surrounding white space; a short, empty or low-entropy one (under
+    :data:`MIN_SECRET_BITS` by :func:`secret_bits`: one letter repeated, a short pattern) is
+    an error."""
     value = secret.strip()
     if len(value) < MIN_SECRET_CHARS:
         msg = (f"the secret from {where} has {len(value)} characters; a private part's secret "
                f"needs at least {MIN_SECRET_CHARS} (e.g. 64 random hex digits: {_MAKE_ONE})")
+        raise InvalidArgument(msg)
+    bits = secret_bits(value)
+    if bits < MIN_SECRET_BITS:
+        msg = (f"the secret from {where} has {len(value)} characters but about {bits:.0f} bits "
+               f"of entropy (its characters repeat); a private part's secret needs at least "
+               f"{MIN_SECRET_BITS} bits: draw it at random, e.g. {_MAKE_ONE}")
         raise InvalidArgument(msg)
     return value
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -22,7 +23,8 @@ from nsrmp_bench.canonical import sha256_file
 from nsrmp_bench.errors import DownloadError, InvalidArgument
 from nsrmp_bench.official_manifests import official_manifest, official_manifest_text
 from nsrmp_bench.split_specs import list_splits, load_split
-from nsrmp_bench.storage.atomic import atomic_write_text
+from nsrmp_bench.storage.atomic import atomic_path, atomic_write_text
+from nsrmp_bench.storage.contained import inside
 from nsrmp_bench.storage.inputs_only import strip_part
 from nsrmp_bench.storage.manifest import read_manifest
 from nsrmp_bench.storage.split_root import split_root_parts
@@ -71,8 +73,9 @@ def pack(data_dir: str | os.PathLike[str], out: str | os.PathLike[str], *,
         if inputs_only:
             strip_part(part_dir, dest)
         for name in [s.file for s in manifest.shards] + ["manifest.json"]:
-            if not inputs_only:
-                shutil.copyfile(part_dir / name, dest / name)
+            if not inputs_only:  # through a temporary name: a full disk leaves no shard
+                with atomic_path(dest / name) as tmp:
+                    shutil.copyfile(part_dir / name, tmp)
             size = (dest / name).stat().st_size
             entries.append(RegistryEntry(f"{part}/{name}", sha256_file(dest / name), size))
     if split_id is None:
@@ -102,6 +105,9 @@ def read_registry(text: str, where: str) -> list[RegistryEntry]:
         if len(fields) != 3 or len(fields[1]) != 64 or not fields[2].isdigit():
             msg = f"{where} line {n}: {line!r} is not '<part>/<file> <sha256> <bytes>'"
             raise DownloadError(msg)
+        inside(Path("."), fields[0], what=f"{where} line {n}: the path", error=DownloadError,
+               fix="a registry names '<part>/<file>' relative to the split's folder; use "
+                   "another mirror or ask its maintainers to fix the registry")
         out.append(RegistryEntry(fields[0], fields[1], int(fields[2])))
     return out
 
@@ -127,12 +133,18 @@ def download(
     base_url: str | None = None,
     trust_mirror_registry: bool = False,
     progress: bool = False,
+    overwrite: bool = False,
 ) -> list[Path]:
     """Fetch ``split_id`` into ``out/<part>/``; every file checked against the registry.
 
     For an official split the registry is the committed manifests (the mirror's
     ``registry.txt`` is not read) and the committed ``manifest.json`` is written locally;
     otherwise, or with ``trust_mirror_registry``, the mirror's ``registry.txt`` is used.
+
+    Every registry path must stay inside ``out`` (no absolute path, no ``..``, no link
+    leading out): one that does not is a :class:`DownloadError` before anything is fetched.
+    A file already in ``out`` that differs from the registry's is kept and refused, unless
+    ``overwrite``.
     """
     pooch: ModuleType = require("pooch")
     pooch.get_logger().setLevel("WARNING")
@@ -149,15 +161,25 @@ def download(
     registry = None if trust_mirror_registry else _official_registry(split_id)
     official = registry is not None
     if registry is None:
-        reg = _fetch(pooch, root + REGISTRY_NAME, out_dir, None)
-        registry = read_registry(reg.read_text("utf-8"), root + REGISTRY_NAME)
-        reg.unlink()
-    files = [_fetch(pooch, root + e.path, out_dir, e, progress=progress) for e in registry]
+        with tempfile.TemporaryDirectory(prefix="nsrmp-registry-") as scratch:
+            reg = _fetch(pooch, root + REGISTRY_NAME, Path(scratch), None)
+            registry = read_registry(reg.read_text("utf-8"), root + REGISTRY_NAME)
+    targets = [_target(out_dir, e, root + REGISTRY_NAME, overwrite=overwrite)
+               for e in registry]
+    files = [_fetch(pooch, root + e.path, out_dir, e, progress=progress, target=t)
+             for e, t in zip(registry, targets, strict=True)]
     if official:  # the committed manifests are the registry: write them as they are
         for part in load_split(split_id).parts:
             text = official_manifest_text(split_id, part)
-            if text is not None:
-                atomic_write_text(out_dir / part / "manifest.json", text)
+            local = out_dir / part / "manifest.json"
+            if text is None or (local.is_file() and local.read_text("utf-8") == text):
+                continue
+            if local.exists() and not overwrite:
+                msg = (f"{str(local)!r} exists and differs from the committed manifest of "
+                       f"{split_id}/{part}; it was kept: move it away, download into another "
+                       "folder, or pass --overwrite to replace it")
+                raise DownloadError(msg)
+            atomic_write_text(local, text)
     return files
 
 
@@ -214,10 +236,27 @@ class ByteProgress:
             self._started = False
 
 
+def _target(out_dir: Path, entry: RegistryEntry, where: str, *, overwrite: bool) -> Path:
+    """Where ``entry`` goes: inside ``out_dir``, and not over a file that differs unasked."""
+    target = inside(out_dir, entry.path, what=f"{where}: the path", error=DownloadError,
+                    fix="a registry names '<part>/<file>' relative to the split's folder; "
+                        "use another mirror or ask its maintainers to fix the registry")
+    if target.is_symlink() or (target.exists() and not target.is_file()):
+        msg = (f"{str(target)!r} exists and is not a plain file, where {entry.path!r} is to "
+               "be downloaded; remove it or download into another folder")
+        raise DownloadError(msg)
+    if not overwrite and target.is_file() and sha256_file(target) != entry.sha256:
+        msg = (f"{str(target)!r} exists and differs from the registry's {entry.path} (sha256 "
+               f"{entry.sha256[:16]}...); it was kept: move it away, download into another "
+               "folder, or pass --overwrite to replace it")
+        raise DownloadError(msg)
+    return target
+
+
 def _fetch(pooch: ModuleType, url: str, out_dir: Path, entry: RegistryEntry | None,
-           *, progress: bool = False) -> Path:
+           *, progress: bool = False, target: Path | None = None) -> Path:
     name = entry.path if entry is not None else REGISTRY_NAME
-    target = out_dir / name
+    target = target if target is not None else out_dir / name
     known = None if entry is None else f"sha256:{entry.sha256}"
     if entry is not None and target.is_file() and sha256_file(target) == entry.sha256:
         return target  # resume: already here and correct

@@ -39,12 +39,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="phases' start, 'YYYY-MM-DD HH:MM:SS' (UTC)")
     parser.add_argument("--end-date", default="2027-12-31 23:59:59",
                         help="phases' end, 'YYYY-MM-DD HH:MM:SS' (UTC)")
+    parser.add_argument("--wheel", type=Path, default=None,
+                        help="the release's wheel: requirements.txt pins nsrmp-bench by its "
+                             "sha256")
 
 
 def run(args: argparse.Namespace) -> int:
     """Write the bundle and say what to upload."""
     written = write_bundle(args.evalai, args.public, args.private, title=args.title,
-                           start_date=args.start_date, end_date=args.end_date)
+                           start_date=args.start_date, end_date=args.end_date,
+                           wheel=args.wheel)
     print(f"wrote the EvalAI bundle ({counted(len(written), 'file')}) into {args.evalai}: "
           "upload challenge_config.yaml with evaluation_script.zip, annotations/ and "
           "templates/ (zipped together) to EvalAI; publish participant_data/")

@@ -6,7 +6,9 @@ Example::
 
 Every file's sha256 is checked against the registry (for official splits: the manifests
 committed in the package). Files already present and correct are kept (resume); a
-corrupted download is deleted and refused with a clear message.
+corrupted download is deleted and refused with a clear message. A registry path outside
+``--out`` (absolute, ``..``, a link) is refused before anything is fetched, and a file
+already there that differs is kept and refused unless ``--overwrite``.
 """
 
 from __future__ import annotations
@@ -28,6 +30,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"mirror base URL (default: ${MIRROR_ENV})")
     parser.add_argument("--trust-mirror-registry", action="store_true",
                         help="use the mirror's registry.txt even for an official split")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace files in --out that differ from the registry's "
+                             "(default: keep them and stop)")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
@@ -35,6 +40,6 @@ def run(args: argparse.Namespace) -> int:
     """Download and print what arrived."""
     files = download(args.split, args.out, base_url=args.base_url,
                      trust_mirror_registry=args.trust_mirror_registry,
-                     progress=not args.quiet)
+                     progress=not args.quiet, overwrite=args.overwrite)
     print(f"{args.split}: {counted(len(files), 'file')} verified in {args.out}")
     return 0

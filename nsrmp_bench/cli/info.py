@@ -37,8 +37,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def category_frame(target: str | SplitSpec) -> pd.DataFrame:
-    """One row per instance with its categories (and a ``part`` column), for a data
-    directory or shard, a split id, a spec file, or a :class:`SplitSpec`."""
+    """Rows of categories with a ``part`` column and an ``instances`` column (how many
+    instances each row stands for), for a data directory or shard (one row per instance),
+    a split id, a spec file, or a :class:`SplitSpec` (one row per distinct config: instance
+    *i* takes the *i*-th cell of its part's cycle, so a count of 10^12 costs no more than
+    one cycle)."""
     spec: SplitSpec | None = target if isinstance(target, SplitSpec) else None
     if isinstance(target, str) and (
         (SPLIT_ID_RE.match(target) and not Path(target).exists())
@@ -48,12 +51,14 @@ def category_frame(target: str | SplitSpec) -> pd.DataFrame:
     if spec is not None:
         rows = []
         for part, ps in spec.parts.items():
-            for i in range(ps.count):
+            cycles, rest = divmod(ps.count, len(ps.cells()))
+            for i in range(min(ps.count, len(ps.cells()))):
                 c = spec.config(part, i)
                 rows.append({"part": part, "steps": c.steps, "objects": c.objects,
                              "relational": c.relational, "phrasing": c.phrasing,
                              "held_out_language": c.held_out,
-                             "held_out_pairs_required": bool(c.required_pairs)})
+                             "held_out_pairs_required": bool(c.required_pairs),
+                             "instances": cycles + (1 if i < rest else 0)})
         return pd.DataFrame(rows)
     from nsrmp_bench.storage.reader import open as open_data
 
@@ -61,6 +66,7 @@ def category_frame(target: str | SplitSpec) -> pd.DataFrame:
     with open_data(path) as collection:
         frame = collection.index.copy()
     frame["part"] = frame.get("split", path)
+    frame["instances"] = 1
     return frame
 
 
@@ -83,16 +89,17 @@ def run(args: argparse.Namespace) -> int:
     frame = category_frame(spec if spec is not None else target)
     console = Console()
     unofficial = "" if spec is None or spec.shipped else f" (unofficial split {spec.id})"
-    console.print(f"{target}: {counted(len(frame), 'instance')}{unofficial}")
+    console.print(f"{target}: {counted(int(frame['instances'].sum()), 'instance')}{unofficial}")
     for part, sub in frame.groupby("part", sort=True):
-        table = Table(title=f"{part} ({len(sub)})")
+        table = Table(title=f"{part} ({int(sub['instances'].sum())})")
         table.add_column("category")
         table.add_column("value")
         table.add_column("count", justify="right")
         for col in sub.columns:
-            if col in ("part", "split", "id", "index", "shard", "hash"):
+            if col in ("part", "split", "id", "index", "shard", "hash", "instances"):
                 continue
-            counts = sub[col].value_counts()
+            counts = sub.groupby(col, dropna=True)["instances"].sum()
+            counts = counts[counts > 0]
             counts = counts.sort_index(key=lambda idx: idx.map(_sort_key))
             if col == "template" and len(counts) > 12:
                 counts = counts.sort_values(ascending=False).head(12)

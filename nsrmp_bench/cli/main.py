@@ -18,6 +18,7 @@ from nsrmp_bench._optional import missing_extra
 from nsrmp_bench._version import __version__
 from nsrmp_bench.engine.signals import EXIT_SIGTERM, Terminated, sigterm_as_interrupt
 from nsrmp_bench.errors import NSRMPError
+from nsrmp_bench.storage.disk_faults import disk_fault
 
 __all__ = ["VERBS", "main"]
 
@@ -160,6 +161,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except ImportError as exc:
         return _missing(args.verb, exc)
+    except OSError as exc:  # a full disk, a read-only folder: a sentence; anything else raises
+        sentence = disk_fault(exc)
+        if sentence is None:
+            raise
+        print(f"nsrmp-bench {args.verb}: error: {sentence}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt as exc:
         by, status = (("SIGTERM", EXIT_SIGTERM) if isinstance(exc, Terminated)
                       else ("Ctrl-C", 130))

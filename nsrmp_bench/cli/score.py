@@ -7,9 +7,11 @@ Example::
 Prints the figures of ``--scorer`` (default ``scorer-v2``; IoU-M first, with 95%
 bootstrap intervals and instance counts), IoU-M after each step, and the breakdown by
 steps, objects, relational and phrasing (``--breakdown all`` adds the rest: relation
-needed, template); ``--json`` writes all of it. A malformed file is refused with every
-problem listed by line. ``--data`` may be the split root ``generate --out`` wrote: the
-part the header names is read.
+needed, template, phenomenon); ``--json`` writes all of it. A malformed file is refused
+with every problem listed by line. ``--data`` may be the split root ``generate --out``
+wrote: the part the header names is read. A file whose header protocol names another
+manifest than the data's is refused, as ``check-submission`` refuses it;
+``--allow-other-manifest`` scores it on purpose (cross-scoring).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from pathlib import Path
 
 from nsrmp_bench.cli.numbers import non_negative_int
 from nsrmp_bench.errors import SubmissionError
+from nsrmp_bench.scoring.made_on import refuse_other_manifest
 from nsrmp_bench.scoring.result import BREAKDOWNS
 from nsrmp_bench.scoring.scorer import DEFAULT_N_BOOT, DEFAULT_SEED, score
 from nsrmp_bench.scoring.version import KNOWN_SCORERS, SCORER_ID
@@ -68,10 +71,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "huge splits)")
     parser.add_argument("--per-instance", type=output_file, default=None,
                         help="also write each instance's values (.csv, or .parquet)")
+    parser.add_argument("--allow-other-manifest", action="store_true",
+                        help="score predictions whose header protocol names another "
+                             "manifest than the data's (deliberate cross-scoring)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Score, print, and write what was asked for."""
+    if not args.allow_other_manifest:
+        refuse_other_manifest(args.predictions, args.data)
     result = score(
         args.predictions, args.data, seed=args.seed, n_boot=args.n_boot, level=args.level,
         breakdown=not args.no_breakdown,

@@ -200,8 +200,11 @@ def _submission(
             raise _Unusual
     codes = np.fromiter(map(_ACTION_CODE.get, actions, repeat(-1)), dtype=np.int64,
                         count=len(actions))
-    subj = np.asarray(subjects, dtype=np.int64)
-    ref = np.asarray(references, dtype=np.int64)
+    try:
+        subj = np.asarray(subjects, dtype=np.int64)
+        ref = np.asarray(references, dtype=np.int64)
+    except (OverflowError, TypeError, ValueError):  # 2**70: the line parser names it
+        raise _Unusual from None
     n_of_step = np.repeat(nobj, prog_len)
     if (
         (codes < 0).any()

@@ -4,7 +4,9 @@ Without data, the file's own consistency is checked: header, JSON, fields, types
 numbers, ordered boxes, programs, duplicate ids, and that it names the expected split; for
 an official split the committed manifest (shipped with the package) holds every instance's
 id and object count, so ids and box counts are checked and missing instances counted too.
-With the split's data, also step counts and that boxes lie in the image. A file that
+With the split's data, also step counts and that boxes lie in the image; with an
+inputs-only pack (what a challenge's participants hold), ids, object counts, image bounds
+and the root hash (:mod:`~nsrmp_bench.scoring.inputs_only_check`). A file that
 predicts no instance at all is refused (it would score zero).
 
 The header's ``"protocol"`` (:mod:`nsrmp_bench.scoring.protocol_fields`) is checked field by
@@ -23,15 +25,16 @@ import numpy as np
 from nsrmp_bench.errors import InvalidArgument, NSRMPError, SubmissionError
 from nsrmp_bench.official_manifests import official_manifest
 from nsrmp_bench.scoring.align import align, split_matches
-from nsrmp_bench.scoring.gold import load_gold
+from nsrmp_bench.scoring.gold import GoldTable, load_gold
+from nsrmp_bench.scoring.inputs_only_check import check_image_bounds, inputs_only_part
 from nsrmp_bench.scoring.protocol_fields import (
     PROTOCOL_KEYS,
     ProtocolFields,
     manifest_mismatch,
     part_root_hash,
 )
-from nsrmp_bench.scoring.reader import read_submission_pending
-from nsrmp_bench.scoring.scorer import Data
+from nsrmp_bench.scoring.reader import claimed_split, read_submission_pending
+from nsrmp_bench.scoring.scorer import Data, gold_limits
 from nsrmp_bench.scoring.submission import Submission, SubmissionHeader
 from nsrmp_bench.scoring.validate import Problems
 from nsrmp_bench.split_specs import load_split
@@ -53,6 +56,8 @@ class CheckReport:
     against_manifest: str = ""
     protocol: str = ""
     """What the protocol check found (one sentence), or a warning that there is none."""
+    inputs_only: bool = False
+    """Checked against an inputs-only pack's manifest and inputs (ids, counts, bounds)."""
 
     def summary(self) -> str:
         """One paragraph for people, and the protocol check's line."""
@@ -66,6 +71,13 @@ class CheckReport:
             "prediction(s)"
         )
         c = self.counts
+        if self.inputs_only:
+            return (
+                f"{head}; {c.get('predicted', 0)} of {c.get('instances', 0)} instances "
+                f"predicted, {c.get('missing', 0)} missing (they score zero). Ids, object "
+                f"counts and image bounds were checked against the inputs-only pack of "
+                f"{self.against_manifest}; step counts need the full part."
+            )
         if not self.against_data and self.against_manifest:
             return (
                 f"{head}; {c.get('predicted', 0)} of {c.get('instances', 0)} instances "
@@ -93,8 +105,14 @@ def check_submission(
     data: Data | None = None,
     unknown_ids: str = "error",
 ) -> CheckReport:
-    """Check a predictions file; raise :class:`SubmissionError` naming every problem."""
-    sub, pending = read_submission_pending(path)
+    """Check a predictions file; raise :class:`SubmissionError` naming every problem.
+
+    The file is read within the bounds of its part: the data's when given, else the
+    committed manifest's (:mod:`~nsrmp_bench.scoring.read_limits`)."""
+    pack = None if data is None else inputs_only_part(data, split or claimed_split(path) or "")
+    gold = None if pack is not None else _gold_of_claimed_part(path, split, data)
+    sub, pending = read_submission_pending(
+        path, limits=None if gold is None else gold_limits(gold, unknown_ids))
     if split is not None and not split_matches(split, sub.header.split):
         msg = (
             f"{sub.source}: the header says split {sub.header.split!r}, but you are checking it "
@@ -122,10 +140,33 @@ def check_submission(
         pending.raise_if_any()
         return CheckReport(sub.source, sub.header, len(sub), False, counts,
                            against_manifest=name, protocol=protocol)
-    gold = load_gold(data, split=split, part=part_of_split(sub.header.split))
+    if pack is not None:  # a participant's pack: ids, counts, bounds, root hash
+        counts = _check_with_manifest(sub, pack.split, pack.objects, unknown_ids, pending)
+        if pack.image_size is not None:
+            check_image_bounds(sub, pack.image_size, pending)
+        pending.raise_if_any()
+        return CheckReport(sub.source, sub.header, len(sub), False, counts,
+                           against_manifest=pack.split, protocol=protocol, inputs_only=True)
+    if gold is None:  # the same header: the part read above, when there was one
+        gold = load_gold(data, split=split, part=part_of_split(sub.header.split))
     table = align(sub, gold, unknown_ids=unknown_ids, pending=pending)
     return CheckReport(sub.source, sub.header, len(sub), True, table.counts, table.warnings,
                        protocol=protocol)
+
+
+def _gold_of_claimed_part(path: str | Path, split: str | None, data: Data | None
+                          ) -> GoldTable | None:
+    """The gold of the part the file's header names, when data is given and holds it (its
+    instances bound the reading); None otherwise (the reading then names the problem)."""
+    if data is None:
+        return None
+    claimed = claimed_split(path)
+    if claimed is None:
+        return None
+    try:
+        return load_gold(data, split=split, part=part_of_split(claimed))
+    except NSRMPError:
+        return None
 
 
 def _part_root_hash(split: str, data: Data | None) -> str | None:

@@ -395,7 +395,8 @@ def load_episodes(
 
     A ``.jsonl`` file holds one symbolic episode per line (``SymbolicEpisode.to_dict``);
     anything else is opened with :func:`nsrmp_bench.storage.open` (a split root at its
-    part ``part``).
+    part ``part``), every shard's sha256 checked against the manifest (once per file
+    identity in a process): gold whose bytes changed is refused, not scored.
     """
     p = Path(path)
     if not p.exists():
@@ -405,7 +406,7 @@ def load_episodes(
         return _read_symbolic_jsonl(p), None
     from nsrmp_bench.storage import open as open_storage
 
-    collection = open_storage(p, part=part)
+    collection = open_storage(p, part=part, verify=True)  # gold is what its manifest says
     return collection.iter_episodes(images=False), _split_of(collection)
 
 

@@ -4,6 +4,12 @@ checked :class:`Submission`.
 A valid file is read in bulk (:mod:`nsrmp_bench.scoring.bulk`); a file the bulk reader
 finds anything unusual in is read line by line by
 :class:`~nsrmp_bench.scoring.validate.SubmissionParser`, which names every problem.
+
+Every read is bounded by the part the file is for
+(:class:`~nsrmp_bench.scoring.read_limits.ReadLimits`: given by the caller that holds the
+gold, else from the committed manifest of the split the header names): JSON Lines are
+read a chunk at a time and refused the moment they pass a bound; a Parquet file's row
+count, leaf values and uncompressed bytes are checked in its footer before any page is read.
 """
 
 from __future__ import annotations
@@ -12,6 +18,7 @@ import gc
 import io
 import json
 from pathlib import Path
+from typing import Any
 
 from nsrmp_bench.errors import MissingExtra, SubmissionError
 from nsrmp_bench.scoring.bulk import read_jsonl_bulk, read_parquet_bulk
@@ -19,32 +26,55 @@ from nsrmp_bench.scoring.file_formats import (
     PredictionsFormat,
     first_line,
     predictions_format,
-    read_jsonl_bytes,
+    read_jsonl_bounded,
 )
+from nsrmp_bench.scoring.read_limits import HEADER_BYTES, ReadLimits
 from nsrmp_bench.scoring.submission import PARQUET_COLUMNS, PARQUET_HEADER_KEY, Submission
 from nsrmp_bench.scoring.validate import Problems, SubmissionParser
 
-__all__ = ["read_header", "read_submission", "read_submission_pending"]
+__all__ = ["claimed_split", "limits_for", "read_header", "read_submission",
+           "read_submission_pending"]
 
 
-def read_submission(path: str | Path) -> Submission:
+def read_submission(path: str | Path, *, limits: ReadLimits | None = None) -> Submission:
     """Read and check a predictions file; ``.parquet`` by suffix, ``.gz`` gzip-compressed
     JSON Lines, anything else JSON Lines (:mod:`~nsrmp_bench.scoring.file_formats`).
 
     Raises :class:`SubmissionError` listing every problem (with its line) if the file is
-    not a valid predictions file.
+    not a valid predictions file, or at once when it passes ``limits`` (default:
+    :func:`limits_for`).
     """
-    sub, problems = read_submission_pending(path)
+    sub, problems = read_submission_pending(path, limits=limits)
     problems.raise_if_any()
     return sub
 
 
-def read_submission_pending(path: str | Path) -> tuple[Submission, Problems]:
+def limits_for(path: str | Path) -> ReadLimits:
+    """The bounds of reading ``path`` when the caller holds no gold: the committed manifest
+    of the official split its header names, else the fixed bounds for an unknown part."""
+    split = claimed_split(path)
+    known = ReadLimits.committed(split) if split is not None else None
+    return known if known is not None else ReadLimits.unknown_part()
+
+
+def claimed_split(path: str | Path) -> str | None:
+    """The split a predictions file's header names, its first line read alone; None when
+    the file has no readable header naming one (reading it whole then names the problem)."""
+    try:
+        split = read_header(path).get("split")
+    except SubmissionError:
+        return None
+    return split if isinstance(split, str) else None
+
+
+def read_submission_pending(path: str | Path, *, limits: ReadLimits | None = None
+                            ) -> tuple[Submission, Problems]:
     """Read a predictions file, returning the problems found instead of raising them.
 
     The table leaves out the lines with problems. A caller that checks more (against the
     split's data) adds its problems to the same list and raises once, so a user sees every
-    problem of the file in one message. A file without a valid header raises at once.
+    problem of the file in one message. A file without a valid header, or one that passes
+    ``limits`` (default: :func:`limits_for`), raises at once.
     """
     p = Path(path)
     if not p.is_file():
@@ -52,6 +82,7 @@ def read_submission_pending(path: str | Path) -> tuple[Submission, Problems]:
         msg = (f"predictions file {str(p)!r} {what}; pass the path of a .jsonl, .jsonl.gz or "
                ".parquet file")
         raise SubmissionError(msg)
+    bounds = limits if limits is not None else limits_for(p)
     # Parsed JSON holds millions of small lists and no reference cycles: pausing the cyclic
     # garbage collector while they are built saves it rescanning them over and over.
     enabled = gc.isenabled()
@@ -59,9 +90,9 @@ def read_submission_pending(path: str | Path) -> tuple[Submission, Problems]:
     try:
         fmt = predictions_format(p)
         if fmt is PredictionsFormat.PARQUET:
-            parsed = _read_parquet(p)
+            parsed = _read_parquet(p, bounds)
         else:
-            data = read_jsonl_bytes(p)
+            data = read_jsonl_bounded(p, bounds)
             bulk = read_jsonl_bulk(str(p), data)
             parsed = bulk if bulk is not None else _read_jsonl(p, data)
         if isinstance(parsed, Submission):
@@ -84,8 +115,20 @@ def read_header(path: str | Path) -> dict[str, object]:
     if predictions_format(p) is PredictionsFormat.PARQUET:
         from nsrmp_bench._optional import require
 
-        meta = require("pyarrow.parquet").read_schema(p).metadata or {}
-        line = b'{"header": ' + meta.get(PARQUET_HEADER_KEY.encode(), b"null") + b"}"
+        try:
+            meta = require("pyarrow.parquet").read_schema(p).metadata or {}
+        except MissingExtra:
+            raise
+        except Exception as exc:  # pyarrow raises several unrelated types for a bad file
+            msg = (f"{p}: not a readable Parquet file ({exc}); write it with pyarrow or use "
+                   ".jsonl")
+            raise SubmissionError(msg) from exc
+        raw = meta.get(PARQUET_HEADER_KEY.encode(), b"null")
+        if len(raw) > HEADER_BYTES:
+            msg = (f"{p}: its {PARQUET_HEADER_KEY!r} metadata is longer than {HEADER_BYTES} "
+                   "bytes; expected the header object alone: store only the header there")
+            raise SubmissionError(msg)
+        line = b'{"header": ' + raw + b"}"
     else:
         line = first_line(p)
     try:
@@ -139,13 +182,43 @@ def _read_jsonl(path: Path, data: bytes) -> SubmissionParser:
     return parser
 
 
-def _read_parquet(path: Path) -> SubmissionParser | Submission:
+def _check_parquet_footer(path: Path, pq: Any, limits: ReadLimits) -> None:
+    """Refuse a Parquet file whose footer says it holds more than ``limits`` allow, before
+    any page is read (a few kilobytes of pages can expand to gigabytes)."""
+    meta = pq.ParquetFile(path).metadata
+    where = f"{path}: a Parquet file for {limits.describe()}"
+    if meta.num_rows > limits.instances:
+        msg = (f"{where} holds at most {limits.instances} rows, this one {meta.num_rows}; "
+               "write one row per instance")
+        raise SubmissionError(msg)
+    values = 0
+    size = 0
+    for g in range(meta.num_row_groups):
+        group = meta.row_group(g)
+        size += group.total_byte_size
+        for c in range(group.num_columns):
+            values += group.column(c).num_values
+    if values > limits.numbers or size > limits.file_bytes:
+        msg = (f"{where} holds at most {limits.numbers} values and {limits.file_bytes} "
+               f"bytes, this one {values} values and {size} bytes uncompressed; reading "
+               "stopped before its pages. Write boxes, program and points only")
+        raise SubmissionError(msg)
+
+
+def _read_parquet(path: Path, limits: ReadLimits | None = None) -> SubmissionParser | Submission:
     from nsrmp_bench._optional import require
 
     try:
         pq = require("pyarrow.parquet")
     except MissingExtra as exc:
         msg = f"{path}: reading Parquet predictions needs pyarrow ({exc}); or write JSON Lines"
+        raise SubmissionError(msg) from exc
+    try:
+        _check_parquet_footer(path, pq, limits if limits is not None else limits_for(path))
+    except SubmissionError:
+        raise
+    except Exception as exc:  # pyarrow raises several unrelated types for a bad file
+        msg = f"{path}: not a readable Parquet file ({exc}); write it with pyarrow or use .jsonl"
         raise SubmissionError(msg) from exc
     try:
         table = pq.read_table(path)

@@ -21,7 +21,8 @@ from nsrmp_bench.scoring.align import PredictionTable, align
 from nsrmp_bench.scoring.bootstrap import bootstrap_intervals, resampling_method
 from nsrmp_bench.scoring.gold import GoldTable, load_gold
 from nsrmp_bench.scoring.metrics import METRICS_V2, instance_scores, step_metric_name
-from nsrmp_bench.scoring.reader import read_submission_pending
+from nsrmp_bench.scoring.read_limits import ReadLimits
+from nsrmp_bench.scoring.reader import claimed_split, read_submission_pending
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.submission import Prediction, Submission, SubmissionHeader
 from nsrmp_bench.scoring.validate import Problems, parse_predictions
@@ -31,6 +32,7 @@ from nsrmp_bench.storage.split_root import part_of_split
 __all__ = [
     "DEFAULT_N_BOOT",
     "DEFAULT_SEED",
+    "gold_limits",
     "metric_columns",
     "prepare",
     "read_predictions",
@@ -55,17 +57,18 @@ def metric_columns(gold: GoldTable, frame: pd.DataFrame) -> list[str]:
     return cols
 
 
-def read_predictions(predictions: Predictions, *, split: str | None = None
-                     ) -> tuple[Submission, Problems | None]:
+def read_predictions(predictions: Predictions, *, split: str | None = None,
+                     limits: ReadLimits | None = None) -> tuple[Submission, Problems | None]:
     """A parsed submission and the problems found reading it (None when given parsed).
 
     ``predictions`` is a file path, a parsed :class:`Submission`, or a list of
-    :class:`Prediction` (checked like a file; ``split`` is its header's split).
+    :class:`Prediction` (checked like a file; ``split`` is its header's split). A file is
+    read within ``limits`` (default: its split's committed manifest's).
     """
     if isinstance(predictions, Submission):
         return predictions, None
     if isinstance(predictions, str | Path):
-        return read_submission_pending(predictions)
+        return read_submission_pending(predictions, limits=limits)
     if isinstance(predictions, Sequence):
         wrong = next((i for i, p in enumerate(predictions) if not isinstance(p, Prediction)),
                      None)
@@ -85,6 +88,15 @@ def read_predictions(predictions: Predictions, *, split: str | None = None
     msg = (f"predictions must be a file path, a list of Prediction or a parsed Submission, "
            f"got {type(predictions).__name__}")
     raise InvalidArgument(msg)
+
+
+def gold_limits(gold: GoldTable, unknown_ids: str = "error") -> ReadLimits:
+    """The bounds of reading a predictions file for ``gold``'s instances; a file allowed to
+    hold other ids (``unknown_ids="warn"``) gets the fixed bounds of an unknown part."""
+    if unknown_ids != "error":
+        return ReadLimits.unknown_part()
+    return ReadLimits.for_arrays(gold.split or gold.source or "the data given", gold.n_objects,
+                                 gold.n_steps)
 
 
 def prepare(
@@ -210,6 +222,9 @@ def score(
     if isinstance(predictions, Sequence) and not isinstance(predictions, str):
         gold = load_gold(data, split=split)  # the header's split comes from the data
         read = read_predictions(predictions, split=gold.split or split)
+    elif isinstance(predictions, str | Path) and (claimed := claimed_split(predictions)):
+        gold = load_gold(data, split=split, part=part_of_split(claimed))
+        read = read_predictions(predictions, limits=gold_limits(gold, unknown_ids))
     else:
         read = read_predictions(predictions)
         gold = load_gold(data, split=split, part=part_of_split(read[0].header.split))

@@ -1,18 +1,19 @@
 """Atomic writes: the one way every writer of the package puts a file on disk.
 
-A file is written as ``NAME.tmp`` next to its final place, flushed and fsynced, renamed to
-``NAME`` and its folder fsynced; a write that fails or is interrupted removes its ``.tmp``,
-so no file that looks complete is ever half-written. The parent folder is created when
-missing. :func:`check_output_file` and :func:`check_output_dir` refuse, before any work, a
-folder where a file is meant, a file where a folder is meant, or a path under a file; the
-command line checks its output options with them (``type=output_file``), so that a long run
-does not end in ``IsADirectoryError`` after all its work.
+A file is written as ``NAME.<pid>-<random>.tmp`` next to its final place, flushed and
+fsynced, renamed to ``NAME`` and its folder fsynced; a write that fails or is interrupted
+removes its ``.tmp``, so no file that looks complete is ever half-written. The parent folder
+is created when missing. :func:`check_output_file` and :func:`check_output_dir` refuse,
+before any work, a folder where a file is meant, a file where a folder is meant, or a path
+under a file; the command line checks its output options with them (``type=output_file``),
+so that a long run does not end in ``IsADirectoryError`` after all its work.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import secrets
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -140,18 +141,26 @@ output_dir = _argparse_type(check_output_dir, "output folder")
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield the ``.tmp`` path to write ``path`` through; commit it when the block ends.
 
+    The temporary name is unique (``NAME.<pid>-<random>.tmp``), so two writers of one path
+    never write into each other's file: the last to finish wins, whole.
+
     The block writes the temporary file by any means (a library's ``write(tmp)``); on
     success it is fsynced and renamed to ``path`` and the folder fsynced; on any exception
     (Ctrl-C and SIGTERM included) it is removed. The parent folder is created.
     """
     out = check_output_file(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.name + TMP_SUFFIX)
+    tmp = out.with_name(f"{out.name}.{os.getpid()}-{secrets.token_hex(4)}{TMP_SUFFIX}")
     try:
         yield tmp
         with open(tmp, "rb+") as fh:
             os.fsync(fh.fileno())
         os.replace(tmp, out)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        if exc.filename is None and exc.errno is not None:  # a failed flush names no file
+            raise OSError(exc.errno, exc.strerror, str(out)) from exc
+        raise
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise

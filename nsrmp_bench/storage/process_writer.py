@@ -34,6 +34,7 @@ from nsrmp_bench.episode import Episode
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage.arrays import episode_arrays
 from nsrmp_bench.storage.chunks import Compressed, precompress
+from nsrmp_bench.storage.disk_faults import DISK_FAULT_ERRNOS
 from nsrmp_bench.storage.handover import Handover
 from nsrmp_bench.storage.layout import DATA_WRITER_VERSION, TMP_SUFFIX
 from nsrmp_bench.storage.prefix_deflate import PrefixDeflater
@@ -123,7 +124,7 @@ class _Child:
         self.closed = False
         self.chunks_compressed = 0  # image chunks compressed here while the child lagged
         self._deflater = PrefixDeflater()  # the caller's own, for the chunks it compresses
-        self._error: tuple[bool, str] | None = None
+        self._error: tuple[bool, str, int | None] | None = None
         # the child's "open" is read when the first episode is handed over (or at commit),
         # not here: the caller makes that episode while the child opens the file
         self._opened = False
@@ -135,7 +136,7 @@ class _Child:
         except EOFError:
             self._proc.join()
             msg = ("error", (False, f"the writer process exited ({self._proc.exitcode}) "
-                                    "without a word"))
+                                    "without a word", None))
         if msg[0] == "error":
             self._error = msg[1]
         elif msg[0] == "open":
@@ -225,12 +226,14 @@ class _Child:
         if self._error is None and not self.closed and self._answer_r.poll():
             self._answer()
         if self._error is not None:
-            invalid, text = self._error
+            invalid, text, code = self._error
             msg = f"writing shard {self.file} failed: {text}"
             if not self.closed:
                 self.abort()
             if invalid:  # bad input stays bad input
                 raise InvalidArgument(msg)
+            if code in DISK_FAULT_ERRNOS:  # a full disk stays a full disk (the CLI says so)
+                raise OSError(code, msg, str(self.tmp_path))
             raise RuntimeError(msg)
 
 
@@ -263,6 +266,8 @@ def _child_main(episodes: Connection, parents_end: Connection, answer: Connectio
                 writer.abort()
                 return
     except BaseException as exc:  # told to the parent, which raises it
-        if writer is not None:
-            writer.abort()
-        answer.send(("error", (isinstance(exc, InvalidArgument), f"{exc}")))
+        if writer is not None:  # on a full disk closing fails too: the first error counts
+            with contextlib.suppress(Exception):
+                writer.abort()
+        code = exc.errno if isinstance(exc, OSError) else None
+        answer.send(("error", (isinstance(exc, InvalidArgument), f"{exc}", code)))

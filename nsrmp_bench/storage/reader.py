@@ -20,7 +20,6 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from nsrmp_bench.canonical import sha256_file
 from nsrmp_bench.episode import (
     Episode,
     ObjectTargets,
@@ -36,6 +35,7 @@ from nsrmp_bench.storage.layout import FORMAT, SHARD_SUFFIX, check_schema_versio
 from nsrmp_bench.storage.manifest import MANIFEST_NAME, Manifest, read_manifest
 from nsrmp_bench.storage.records import CATEGORY_KEYS
 from nsrmp_bench.storage.split_root import resolve_part
+from nsrmp_bench.storage.verified_files import sha256_once
 
 __all__ = ["EpisodeCollection", "input_camera", "open", "read_episode", "read_inputs",
            "read_targets"]
@@ -481,7 +481,7 @@ def _open_dir(path: Path, verify: bool) -> EpisodeCollection:
             )
             raise DataIntegrityError(msg)
         if verify:
-            sha = sha256_file(shard)
+            sha = sha256_once(shard)
             if sha != s.sha256:
                 msg = (
                     f"shard {shard} has sha256 {sha} but the manifest says {s.sha256}: it "
@@ -507,8 +507,9 @@ def open(
 
     Always checked: format and schema major version, shard sizes against the manifest, and
     each episode's stored content hash against the manifest when it is read. With
-    ``verify`` also every shard's sha256 (at open) and every episode's recomputed hash
-    (when read with images): slower, for ``verify`` runs and paranoid readers.
+    ``verify`` also every shard's sha256 (at open; once per file identity in a process,
+    :mod:`~nsrmp_bench.storage.verified_files`) and every episode's recomputed hash (when
+    read with images): slower, for ``verify`` runs, the scorer's gold and paranoid readers.
     """
     p = resolve_part(path, part)
     if p.is_dir():

@@ -126,10 +126,12 @@ class SyncShardWriter(ShardWriter):
         return record
 
     def abort(self) -> None:
-        if self._f is not None:
-            self._f.close()
-            self._f = None
-        remove_partial(self.tmp_path)
+        try:
+            if self._f is not None:
+                f, self._f = self._f, None
+                f.close()  # on a full disk this fails too; the partial file goes anyway
+        finally:
+            remove_partial(self.tmp_path)
 
 
 class ThreadShardWriter(SyncShardWriter):

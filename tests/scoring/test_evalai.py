@@ -170,3 +170,71 @@ def test_a_public_part_as_the_private_test_is_refused(
     _, public, _ = made
     with pytest.raises(InvalidArgument, match="is not a private part"):
         write_bundle(tmp_path / "b", public, public)
+
+
+def test_the_bundle_installs_nothing_at_evaluation_time(made: tuple[Path, Path, Path]) -> None:
+    bundle, _, _ = made
+    main = (bundle / "evaluation_script" / "main.py").read_text()
+    assert "pip" not in main.replace("pip install -r requirements.txt", "")
+    assert "subprocess" not in main
+    requirements = (bundle / "evaluation_script" / "requirements.txt").read_text()
+    from nsrmp_bench import __version__
+
+    assert f"nsrmp-bench=={__version__}" in requirements
+    import zipfile
+
+    with zipfile.ZipFile(bundle / "evaluation_script.zip") as z:
+        assert "requirements.txt" in z.namelist()
+
+
+def test_a_tampered_cached_gold_is_refused(made: tuple[Path, Path, Path], tmp_path: Path) -> None:
+    from nsrmp_bench.errors import DataIntegrityError
+    from nsrmp_bench.evalai import _unpacked, evaluate_in_process
+
+    bundle, public, _ = made
+    annotation = bundle / "annotations" / "public-test.zip"
+    phases = json.loads((bundle / "evaluation_script" / "phases.json").read_text())
+    predictions = _noop(public, tmp_path / "noop.jsonl")
+    cached = _unpacked(annotation)
+    shard = sorted(cached.glob("shard-*.h5"))[0]
+    original = shard.read_bytes()
+    try:
+        data = bytearray(original)
+        data[len(data) // 2] ^= 0xFF
+        shard.write_bytes(bytes(data))
+        with pytest.raises(DataIntegrityError, match="but the manifest says"):
+            evaluate_in_process(annotation, predictions, "public-test", phases)
+    finally:
+        shard.write_bytes(original)
+
+
+def test_an_evaluation_past_its_time_limit_is_stopped(
+        made: tuple[Path, Path, Path], tmp_path: Path) -> None:
+    from nsrmp_bench.errors import ResourceLimit
+    from nsrmp_bench.evalai import evaluate_phase
+
+    bundle, public, _ = made
+    phases = json.loads((bundle / "evaluation_script" / "phases.json").read_text())
+    predictions = _noop(public, tmp_path / "noop.jsonl")
+    with pytest.raises(ResourceLimit, match=r"took longer than 0.01 s and was stopped"):
+        evaluate_phase(bundle / "annotations" / "public-test.zip", predictions, "public-test",
+                       phases, time_limit_s=0.01)
+
+
+def test_a_gzip_bomb_is_refused_by_the_evaluator_at_its_parts_bound(
+        made: tuple[Path, Path, Path], tmp_path: Path) -> None:
+    import gzip
+    import zlib
+
+    from nsrmp_bench.errors import SubmissionError
+    from nsrmp_bench.evalai import evaluate_phase
+
+    bundle, public, _ = made
+    phases = json.loads((bundle / "evaluation_script" / "phases.json").read_text())
+    header = json.loads(_noop(public, tmp_path / "noop.jsonl").read_text().splitlines()[0])
+    member = zlib.compressobj(9, zlib.DEFLATED, 31)
+    one = member.compress(b"\n" * (16 << 20)) + member.flush()
+    bomb = tmp_path / "bomb.jsonl.gz"  # 2 MB, 2 GiB of newlines after the header
+    bomb.write_bytes(gzip.compress((json.dumps(header) + "\n").encode(), mtime=0) + one * 128)
+    with pytest.raises(SubmissionError, match="reading stopped there"):
+        evaluate_phase(bundle / "annotations" / "public-test.zip", bomb, "public-test", phases)

@@ -130,11 +130,12 @@ def test_protocol_round_trips_and_refuses_missing_keys() -> None:
 @pytest.mark.sim
 def test_the_leaderboard_refuses_an_entry_made_on_another_part(
         smoke_v2_root: Path, tmp_path: Path) -> None:
-    entries = tmp_path / "entries"
-    entries.mkdir()
+    entries = tmp_path / "leaderboards" / "entries"
+    entries.mkdir(parents=True)
+    (entries.parent / "predictions").symlink_to(ENTRIES.parent / "predictions",
+                                                target_is_directory=True)
     source = ENTRIES / "smoke-v2-test--noop-v1.json"
     data = json.loads(source.read_text())
-    data["predictions"] = str((ENTRIES / data["predictions"]).resolve())
     data["protocol"]["manifest_root_hash"] = "cd" * 32
     (entries / source.name).write_text(json.dumps(data))
     root = tmp_path / "data"

@@ -229,7 +229,8 @@ BOXES = json.dumps(INITIAL)
 def test_bad_abstentions_are_refused_naming_the_line(
         tmp_path: Path, line: str, said: list[str], capsys: pytest.CaptureFixture[str]) -> None:
     data = tmp_path / "episodes.jsonl"
-    data.write_text(json.dumps(boxed_episode("q", [INITIAL], []).symbolic.to_dict()) + "\n")
+    data.write_text("".join(json.dumps(boxed_episode(i, [INITIAL], []).symbolic.to_dict()) + "\n"
+                            for i in ("p", "q")))  # as many instances as the file's lines
     bad = tmp_path / "bad.jsonl"
     good = json.dumps({"id": "p", "boxes": INITIAL})
     bad.write_text(f"{HEADER_LINE}\n{good}\n{line}\n")

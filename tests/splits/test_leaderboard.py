@@ -23,15 +23,19 @@ BOARDS = Path(__file__).resolve().parents[2] / "leaderboards"
 
 
 def _entries(tmp_path: Path, splits: set[str]) -> Path:
-    entries = tmp_path / "entries"
-    entries.mkdir(exist_ok=True)
+    """The entries of ``splits`` in ``tmp_path/leaderboards/entries``, beside links to the
+    committed predictions and models (an entry's paths stay inside its repository)."""
+    boards = tmp_path / "leaderboards"
+    entries = boards / "entries"
+    entries.mkdir(parents=True, exist_ok=True)
+    if not (boards / "predictions").exists():
+        (boards / "predictions").symlink_to(BOARDS / "predictions", target_is_directory=True)
+        (tmp_path / "reference_model").symlink_to(BOARDS.parent / "reference_model",
+                                                  target_is_directory=True)
     for entry in load_entries(BOARDS / "entries"):
         if entry.split in splits:
-            data = json.loads((BOARDS / "entries" / f"{entry.name}.json").read_text())
-            data["predictions"] = str(entry.predictions)  # absolute: the copy moved
-            if entry.model_card is not None:
-                data["model_card"] = str(entry.model_card)
-            (entries / f"{entry.name}.json").write_text(json.dumps(data))
+            source = BOARDS / "entries" / f"{entry.name}.json"
+            (entries / source.name).write_text(source.read_text())
     return entries
 
 

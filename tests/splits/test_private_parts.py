@@ -29,7 +29,7 @@ from nsrmp_bench.verify import verify
 pytestmark = pytest.mark.sim
 
 SECRET = "9f1c2e7a4b6d8e0f1a3c5e7b9d2f4a6c8e0b2d4f6a8c0e2b4d6f8a0c2e4b6d8f"
-OTHER = "0" * 64
+OTHER = "c1191609540a00df58cc5be8072fe76d6b1cbb3e21d7c7cbbb6836bd389d3aa2"
 SPEC = {
     "id": "hidden-v1",
     "description": "a private test part for the tests: 3-4 objects, one or two steps",

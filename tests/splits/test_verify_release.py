@@ -169,3 +169,10 @@ def test_official_download_uses_the_committed_manifest(
     report = verify(out / "test")
     assert report.ok, report.problems
     assert report.committed_root_hash == report.root_hash
+    committed = (out / "test" / "manifest.json").read_text()
+    (out / "test" / "manifest.json").write_text("{}\n")  # the user's own: kept unless asked
+    with pytest.raises(DownloadError, match=r"differs from the committed manifest.*--overwrite"):
+        download("smoke-v2", out, base_url=url)
+    assert (out / "test" / "manifest.json").read_text() == "{}\n"
+    download("smoke-v2", out, base_url=url, overwrite=True)
+    assert (out / "test" / "manifest.json").read_text() == committed
