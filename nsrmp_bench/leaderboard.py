@@ -30,6 +30,7 @@ from typing import Any
 from nsrmp_bench.canonical import canonical_json
 from nsrmp_bench.errors import InvalidArgument, UnsafePath
 from nsrmp_bench.ranks import RANK_RULE, shared_ranks
+from nsrmp_bench.scoring.gold import GoldTable, load_gold
 from nsrmp_bench.scoring.protocol_fields import ProtocolFields, manifest_mismatch, part_root_hash
 from nsrmp_bench.scoring.result import ScoreResult
 from nsrmp_bench.scoring.scorer import score
@@ -234,6 +235,7 @@ def build(
     ``breakdown``; the boards' figures are the same either way).
     """
     boards: dict[str, list[dict[str, Any]]] = {}
+    golds: dict[str, GoldTable] = {}
     for entry in load_entries(entries_dir):
         split_id, part = entry.split.split("/", 1)
         data = find_part(data_root, entry.split)
@@ -246,7 +248,9 @@ def build(
             raise InvalidArgument(msg)
         _check_protocol(entry, data)
         phenomena = "phenomenon" in read_manifest(data).to_dict().get("counts", {})
-        result = score(entry.predictions, data, breakdown=breakdown or phenomena,
+        if str(data) not in golds:  # a part's gold is read once for all its entries
+            golds[str(data)] = load_gold(data)
+        result = score(entry.predictions, golds[str(data)], breakdown=breakdown or phenomena,
                        scorer=scorer)
         if on_result is not None:
             on_result(entry, result)
