@@ -28,14 +28,17 @@ def semantics_root(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_board_shows_each_phenomenon(semantics_root: Path, tmp_path: Path) -> None:
     part = semantics_root / "semantics-v1" / "test"
-    entries = tmp_path / "entries"
-    entries.mkdir()
+    entries = tmp_path / "leaderboards" / "entries"  # laid out as in the repository
+    predictions = tmp_path / "leaderboards" / "predictions"
+    entries.mkdir(parents=True)
+    predictions.mkdir()
     for baseline in ("oracle", "noop"):
-        out = tmp_path / f"{baseline}.jsonl.gz"
+        out = predictions / f"{baseline}.jsonl.gz"
         subprocess.run([*CLI, "baseline", baseline, "--data", str(part), "--out", str(out)],
                        check=True, capture_output=True)
         (entries / f"semantics-v1-test--{baseline}-v1.json").write_text(json.dumps({
-            "model": f"{baseline}-v1", "split": "semantics-v1/test", "predictions": str(out),
+            "model": f"{baseline}-v1", "split": "semantics-v1/test",
+            "predictions": f"../predictions/{out.name}",
             "kind": "baseline", "description": baseline}))
     boards = build(entries, semantics_root, tmp_path / "out")
     rows = {r["model"]: r for r in boards["semantics-v1/test"]}
