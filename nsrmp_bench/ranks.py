@@ -18,7 +18,8 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any, SupportsFloat
 
-__all__ = ["RANK_RULE", "REFERENCE_KIND", "is_reference", "shared_ranks"]
+__all__ = ["RANK_RULE", "REFERENCE_KIND", "is_reference", "rank_metric", "rank_rule",
+           "shared_ranks"]
 
 REFERENCE_KIND = "baseline"
 """The ``kind`` of a reference row (a registered baseline's): not ranked."""
@@ -36,13 +37,30 @@ RANK_RULE = ("Ranks: the reference rows (oracle, noop, random) are bounds and ar
              "its own position (1=, 1=, 3, …).")
 
 
+def rank_metric(rows: Sequence[Mapping[str, Any]]) -> str:
+    """The figure a board ranks by: IoU-M, or strict success on a board of a part with
+    phenomena (semantics-v1), where IoU-M is undefined wherever nothing is to move."""
+    return "success_strict" if any(row.get("phenomena") for row in rows) else "iou_m"
+
+
+def rank_rule(metric: str = "iou_m") -> str:
+    """:data:`RANK_RULE` for a board ranked by ``metric``."""
+    if metric == "iou_m":
+        return RANK_RULE
+    return RANK_RULE.replace(
+        "ranked by IoU-M", "ranked by strict success (IoU-M is undefined where nothing "
+        "is to move)")
+
+
 def _finite(value: SupportsFloat | None) -> bool:
     return value is not None and math.isfinite(float(value))
 
 
-def shared_ranks(rows: Sequence[Mapping[str, Any]]) -> list[str]:
-    """The rank shown for each row of a board in IoU-M order ("" for a reference row,
-    "2=" for a shared rank), by :data:`RANK_RULE`."""
+def shared_ranks(rows: Sequence[Mapping[str, Any]], metric: str | None = None) -> list[str]:
+    """The rank shown for each row of a board in the order of ``metric`` (default:
+    :func:`rank_metric`; "" for a reference row, "2=" for a shared rank), by
+    :func:`rank_rule`."""
+    metric = metric or rank_metric(rows)
     ranks: list[int | None] = []
     leader: tuple[int, float, float] | None = None
     position = 0
@@ -51,7 +69,7 @@ def shared_ranks(rows: Sequence[Mapping[str, Any]]) -> list[str]:
             ranks.append(None)
             continue
         position += 1
-        triple = row["metrics"].get("iou_m") or [None, None, None]
+        triple = row["metrics"].get(metric) or [None, None, None]
         low, high = triple[1], triple[2]
         if not (_finite(low) and _finite(high)):
             leader = None

@@ -47,7 +47,7 @@ from typing import Any
 
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.leaderboard import COLUMNS, Entry, scorer_note
-from nsrmp_bench.ranks import RANK_RULE, shared_ranks
+from nsrmp_bench.ranks import RANK_RULE, rank_metric, rank_rule, shared_ranks
 from nsrmp_bench.results.colours import model_styles
 from nsrmp_bench.results.figures import CATEGORY_BARS, FIGURES, caption, figure_names
 from nsrmp_bench.results.model_cards import CARD_FIELDS, NOT_STATED, model_card
@@ -255,7 +255,7 @@ def _board_page(split: str, rows: list[dict[str, Any]], site: _Site) -> str:
         "predictions file (<code>nsrmp-bench leaderboard</code> recomputes it). Values with "
         "95% bootstrap intervals; IoU-M (moved objects) is the headline. Click a column "
         "heading to sort; the boxes below filter by protocol.</p>",
-        f'<p class="note">{_e(RANK_RULE)}</p>',
+        f'<p class="note">{_e(rank_rule(rank_metric(rows)))}</p>',
     ]
     scorers = sorted({str(r["scorer"]) for r in rows if r.get("scorer")})
     if scorers:

@@ -57,3 +57,4 @@ def test_board_shows_each_phenomenon(semantics_root: Path, tmp_path: Path) -> No
     board = (tmp_path / "out" / "semantics-v1-test.md").read_text("utf-8")
     assert "## By phenomenon" in board
     assert "| prohibition | noop-v1 |" in board
+    assert "ranked by strict success" in board  # IoU-M is undefined where nothing moves
