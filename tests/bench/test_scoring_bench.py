@@ -18,7 +18,10 @@ pick/place locations on some lines (``tests/scoring/scoring_factory.py``). Timed
 * ``end_to_end_parquet``: the same with the same predictions as a Parquet file (needs
   pyarrow);
 * ``python_loop``: IoU, IoU-M, 2D success and two program accuracies only, one instance
-  at a time in plain Python (the comparison).
+  at a time in plain Python (the comparison);
+* ``end_to_end_v1``: ``end_to_end`` under ``scorer-v1`` (without kept still, strict
+  success and abstention); the script times it alternately with ``scorer-v2`` and prints
+  the ratio of their best times (the goal: v2 within 10% of v1).
 """
 
 from __future__ import annotations
@@ -98,6 +101,15 @@ def test_end_to_end(benchmark: Any, tables: Any, jsonl: Path) -> None:
     assert result.counts["instances"] == N
 
 
+def test_end_to_end_v1(benchmark: Any, tables: Any, jsonl: Path) -> None:
+    gold, _ = tables
+    result = benchmark.pedantic(
+        score, args=(jsonl, gold),
+        kwargs={"breakdown_intervals": False, "scorer": "scorer-v1"}, rounds=3, iterations=1,
+    )
+    assert "success_strict" not in result.summary.index
+
+
 def test_end_to_end_parquet(benchmark: Any, tables: Any, parquet: Path) -> None:
     gold, _ = tables
     result = benchmark.pedantic(
@@ -141,6 +153,14 @@ def main(n: int = N) -> None:
             wall, cpu = _best(f, repeats)
             print(f"{name:12s} wall {wall:7.3f} s  cpu {cpu:7.3f} s  "
                   f"{n / wall:12,.0f} instances/s")
+        best: dict[str, list[float]] = {"scorer-v1": [], "scorer-v2": []}
+        for _ in range(4):  # alternated, so both see the same load
+            for scorer, times in best.items():
+                times.append(_best(lambda s=scorer: score(
+                    path, gold, breakdown_intervals=False, scorer=s), 1)[1])
+        v1, v2 = min(best["scorer-v1"]), min(best["scorer-v2"])
+        print(f"end_to_end cpu, best of 4 alternated: scorer-v1 {v1:.3f} s, scorer-v2 "
+              f"{v2:.3f} s, ratio {v2 / v1:.3f}")
 
 
 if __name__ == "__main__":
