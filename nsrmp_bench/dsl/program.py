@@ -22,6 +22,7 @@ __all__ = [
     "Node",
     "Program",
     "load_signatures",
+    "newest_dsl_version",
 ]
 
 
@@ -39,6 +40,11 @@ _PARAM_VALUES: dict[str, tuple[str, ...]] = {
     "action": ACTIONS,
     "ordinal": ORDINALS,
 }
+
+
+def newest_dsl_version(versions: Iterable[str]) -> str:
+    """The newest of DSL version ids (``dsl-vN``); ``dsl-v1`` for none."""
+    return max(versions, key=lambda v: int(v.rsplit("-v", 1)[1]), default="dsl-v1")
 
 
 @dataclass(frozen=True)
@@ -142,6 +148,13 @@ class Program:
         """Whether the subtree under ``node_index`` contains an ``op`` node."""
         node = self.nodes[node_index]
         return node.op == op or any(self.uses(i, op) for i in node.inputs)
+
+    @property
+    def dsl_version(self) -> str:
+        """The oldest DSL version that has every operation of the program (an operation's
+        ``since`` in ``signatures.json``; ``dsl-v1`` where none says)."""
+        ops = load_signatures()["operations"]
+        return newest_dsl_version(str(ops[n.op].get("since", "dsl-v1")) for n in self.nodes)
 
     @property
     def relational(self) -> bool:

@@ -33,7 +33,7 @@ from nsrmp_bench.geometry.camera import Camera
 from nsrmp_bench.storage.hashing import episode_hash
 from nsrmp_bench.storage.layout import FORMAT, SHARD_SUFFIX, check_schema_version
 from nsrmp_bench.storage.manifest import MANIFEST_NAME, Manifest, read_manifest
-from nsrmp_bench.storage.records import CATEGORY_KEYS
+from nsrmp_bench.storage.records import CATEGORY_KEYS, OPTIONAL_CATEGORY_KEYS
 from nsrmp_bench.storage.split_root import resolve_part
 from nsrmp_bench.storage.verified_files import sha256_once
 
@@ -434,12 +434,16 @@ class EpisodeCollection:
     def index(self) -> pd.DataFrame:
         """One row per episode: id, split, index, categories and shard file."""
         if self._index is None:
+            # the optional categories (phenomenon) are columns only where some episode has them
+            keys = [k for k in CATEGORY_KEYS if k not in OPTIONAL_CATEGORY_KEYS
+                    or any(k in r.categories for r in self._rows)]
             records = [
                 {"id": r.id, "split": self.split, "index": r.index,
-                 **{k: r.categories.get(k) for k in CATEGORY_KEYS}, "shard": r.shard}
+                 **{k: r.categories.get(k) for k in keys}, "shard": r.shard}
                 for r in self._rows
             ]
-            self._index = pd.DataFrame.from_records(records, columns=list(INDEX_COLUMNS))
+            columns = [c for c in INDEX_COLUMNS if c not in CATEGORY_KEYS or c in keys]
+            self._index = pd.DataFrame.from_records(records, columns=columns)
         return self._index
 
     def __repr__(self) -> str:
@@ -457,7 +461,7 @@ def _open_shard(path: Path, verify: bool) -> EpisodeCollection:
             raise DataIntegrityError(msg) from exc
     rows = [
         _Row(str(r["id"]), int(r["index"]), path.name, None,
-             {k: r.get(k) for k in CATEGORY_KEYS})
+             {k: r[k] for k in CATEGORY_KEYS if k in r})
         for r in rows_json
     ]
     return EpisodeCollection(path, rows, split=split, verify=verify)

@@ -17,11 +17,16 @@ from nsrmp_bench.errors import DataIntegrityError
 from nsrmp_bench.storage.atomic import atomic_write_text, fsync_dir
 from nsrmp_bench.storage.layout import RECORD_SUFFIX
 
-__all__ = ["CATEGORY_KEYS", "EpisodeEntry", "ShardRecord", "atomic_write_text", "fsync_dir"]
+__all__ = ["CATEGORY_KEYS", "OPTIONAL_CATEGORY_KEYS", "EpisodeEntry", "ShardRecord",
+           "atomic_write_text", "fsync_dir"]
 
 CATEGORY_KEYS = ("steps", "objects", "relational", "relation_needed", "phrasing", "template",
                  "phenomenon")
 """The category columns of an episode (``SymbolicEpisode.categories()``)."""
+
+OPTIONAL_CATEGORY_KEYS = ("phenomenon",)
+"""Categories only some episodes have (the semantics split's): absent elsewhere, so the
+other splits' files, manifests and index columns stay as they were."""
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ import h5py
 import numpy as np
 
 from nsrmp_bench.canonical import canonical_json
-from nsrmp_bench.dsl.program import load_signatures
+from nsrmp_bench.dsl.program import newest_dsl_version
 from nsrmp_bench.episode import SCHEMA_VERSION, Episode
 from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.storage import episode_group, h5_objects
@@ -43,6 +43,7 @@ class SyncShardWriter(ShardWriter):
                  split: str, package_version: str = DATA_WRITER_VERSION) -> None:
         super().__init__(out_dir, start, stop, split=split, package_version=package_version)
         self._entries: list[EpisodeEntry] = []
+        self._dsl = "dsl-v1"  # the oldest DSL version the shard's programs need
         self._error: BaseException | None = None
         self._deflater = PrefixDeflater()
         self._f: h5py.File | None = h5py.File(self.tmp_path, "w", libver=LIBVER)
@@ -64,6 +65,7 @@ class SyncShardWriter(ShardWriter):
         episode_group.write_episode_group(self._data, episode, index, ehash,
                                           compressed=compressed, deflater=self._deflater)
         self._f.flush()
+        self._dsl = newest_dsl_version((self._dsl, episode.symbolic.program.dsl_version))
         self._entries.append(EpisodeEntry(index, episode.id, ehash,
                                           episode.symbolic.categories(),
                                           tolerant_summary(episode)))
@@ -98,7 +100,9 @@ class SyncShardWriter(ShardWriter):
         generator = ",".join(sorted(set(self._generators)))
         f.attrs["generator"] = generator
         f.attrs["package_version"] = self.package_version
-        f.attrs["dsl"] = str(load_signatures().get("version", ""))
+        # the oldest DSL that reads every program of the shard: a shard without the newer
+        # operations keeps the bytes it had before they were added
+        f.attrs["dsl"] = self._dsl
         f.attrs["index_start"] = np.int64(self.start)
         f.attrs["index_stop"] = np.int64(self.stop)
         f.attrs["num_episodes"] = np.int64(len(self._entries))

@@ -148,3 +148,9 @@ def test_a_cell_stride_sharing_a_factor_with_the_cells_is_refused(tmp_path: Path
     path.write_text(json.dumps(spec), "utf-8")
     with pytest.raises(InvalidArgument, match="cell_stride: 9 shares a factor"):
         load_split_file(path)
+
+
+def test_a_program_says_the_oldest_dsl_that_reads_it() -> None:
+    superlative = _episode("superlative", 3)
+    assert superlative.program.dsl_version == "dsl-v2"
+    assert _episode("negation", 3).program.dsl_version == "dsl-v1"

@@ -1,6 +1,6 @@
 """The committed lexicon (``reference_model/language/lexicon.json``) and its loader
-(``reference_model/language/lexicon.py``); no torch, no WordNet. Its build is tested in
-``tests/scripts/test_build_lexicon.py``."""
+(``reference_model/language/lexicon.py``); no torch, no WordNet. Its build is tested by
+``test_build_lexicon.py`` beside the other scripts' tests."""
 
 from __future__ import annotations
 
