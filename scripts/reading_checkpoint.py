@@ -32,7 +32,7 @@ from nsrmp_bench.reference_model.checkpoints import (
 )
 from nsrmp_bench.reference_model.registry import get_model
 
-SOURCES = {"nsrm-v3": "nsrm-v2", "nmn-v3": "nmn-v2"}
+SOURCES = {"nsrm-v3": "nsrm-v2", "nmn-v3": "nmn-v2", "nsrm-v4": "nsrm-v3", "nmn-v4": "nmn-v3"}
 
 
 def size_prior(part: Path, vocab: list[str]) -> tuple[float, ...]:
