@@ -24,7 +24,7 @@ Abstaining, nothing moves and the program is empty.
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -38,6 +38,7 @@ from nsrmp_bench.reference_model.language.reading import EMPTY_READING, ReadingM
 from nsrmp_bench.reference_model.language.structure import (
     NOT_FEASIBLE,
     Structure,
+    plain_phrases,
     read_structure,
 )
 from nsrmp_bench.reference_model.program.data import ProgramData, program_data
@@ -65,7 +66,9 @@ class StructureSettings:
     reader_steps: bool = True  # the reader's count of steps decides how many the splitter cuts
     absent_score: float = -1e9  # the best object's reference score under this: not feasible
     ambiguous_margin: float = 0.0  # best two objects within this (log-prob): not feasible
-    extreme_members: float = 2.0  # objects within this of the best are the phrase's set
+    extreme_members: float = 6.0  # objects within this of the best are the phrase's set
+    phrase_fit: float = -12.0  # no object fits a plain phrase this well: absent (0: off)
+    phrase_twice: float = -0.5  # two objects fit it this well: ambiguous (0: off)
 
 
 @dataclass
@@ -75,6 +78,8 @@ class _Confidence:
     fit: float = float("inf")
     margin: float = float("inf")
     extreme_unclear: bool = False
+    # per plain phrase ("the red cube"): each object's fit (the least over its words)
+    phrases: list[list[float]] = field(default_factory=list)
 
 
 def _raw(step_model: Any) -> tuple[Tensor, Tensor] | None:
@@ -174,6 +179,12 @@ class StructureReadingModel(ReadingModel):
             if why is None and (c.extreme_unclear or c.fit < float(cfg.absent_score)
                                 or c.margin < float(cfg.ambiguous_margin)):
                 why = NOT_FEASIBLE
+            for fits in c.phrases if why is None else []:
+                ranked = sorted(fits, reverse=True)
+                if (cfg.phrase_fit and ranked[0] < float(cfg.phrase_fit)) or (
+                        cfg.phrase_twice and len(ranked) > 1
+                        and ranked[1] >= float(cfg.phrase_twice)):
+                    why = NOT_FEASIBLE
             if why is not None:
                 decoded.steps[i] = []
                 n = len(data.states[i])
@@ -182,6 +193,28 @@ class StructureReadingModel(ReadingModel):
                 decoded.centres[i] = data.states[i].centres.copy()
             abstain.append(why)
         return data, decoded, abstain
+
+    def _phrase_fits(self, text: str, feats: Tensor, n: int) -> list[list[float]]:
+        """Each plain phrase's fit to each object: the least over its colour and shape words
+        of the word's concept score (``concept . features + bias``, the mean over an
+        ensemble's members); none where the step model has no word concepts (NMN+)."""
+        step = self.model.step
+        members = list(getattr(step, "members", [step]))
+        if not all(hasattr(m, "concept") for m in members):
+            return []
+        out = []
+        for p in plain_phrases(text):
+            words = [w for w in (p.colour, p.shape) if w is not None]
+            ids = [self.vocab.encode(w)[0] for w in words]
+            if not ids or any(i <= 1 for i in ids):  # a word the networks never saw
+                continue
+            tok = torch.tensor(ids, dtype=torch.long)
+            parts = feats[:n].chunk(len(members), -1)
+            logit = torch.stack([
+                torch.einsum("wd,nd->wn", m.concept(tok), f) + m.concept_bias(tok)
+                for m, f in zip(members, parts, strict=True)]).mean(0)
+            out.append(logit.min(0).values.tolist())
+        return out
 
     def _cuts(self, tokens: list[list[int]], structures: Sequence[Structure]) -> list[list[int]]:
         """The splitter's cuts, or where the reader counts another number of steps (steps
@@ -219,6 +252,10 @@ class StructureReadingModel(ReadingModel):
             sizes = self.perceived_sizes(batch.sizes, batch.mask)
             feats = model.features(batch.crops, batch.mask, sizes)
             n_obj = batch.mask.shape[1]
+            for i, r in enumerate(rows):
+                if structures[r].abstain is None:
+                    conf[r].phrases = self._phrase_fits(structures[r].said, feats[i],
+                                                        len(data.states[r]))
             centres = [data.states[r].centres.copy() for r in rows]
             previous = torch.zeros((len(rows), n_obj))
             on = [[-1] * len(data.states[r]) for r in rows]
@@ -250,7 +287,12 @@ class StructureReadingModel(ReadingModel):
                             continue
                         scores = (raw[0] if ex.role == "subject" else raw[1])[j, :n]
                         best = float(scores.max())
-                        members = [o for o in range(n) if float(scores[o]) >= best - members_within]
+                        members = (list(range(n)) if ex.generic else
+                                   [o for o in range(n)
+                                    if float(scores[o]) >= best - members_within])
+                        if len(members) < ex.rank:  # the best `rank` the words fit
+                            members = [int(o) for o in torch.argsort(scores, descending=True)
+                                       [: ex.rank]]
                         chosen = _ranked(members, centres[i], ex.side, ex.rank)
                         if chosen is None:
                             conf[r].extreme_unclear = True

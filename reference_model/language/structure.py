@@ -35,7 +35,7 @@ A pure function of the text: no torch, no scene.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Final
 
 from nsrmp_bench.errors import InvalidArgument
@@ -60,7 +60,7 @@ PUT_VERBS: Final = frozenset({"put", "place", "move", "set", "stack", "position"
                               "relocate", "reposition", "carry", "deposit", "rest"})
 """Verbs that start a step (besides the lexicon's actions of value put, move or stack)."""
 TAKE_VERBS: Final = frozenset({"pick", "take", "grab", "grasp", "lift", "hold", "get",
-                               "raise", "collect", "seize"})
+                               "raise", "collect", "seize", "fetch"})
 """Verbs of taking: a step's first half ("Pick up X."), its destination to come."""
 DIRECTIVES: Final = frozenset({"should", "supposed", "must", "ought", "ensure", "needs",
                                "need", "wants", "want", "let", "belongs", "belong", "goes",
@@ -107,6 +107,8 @@ class Extreme:
     step: int
     role: str
     words: str  # as said, for the notes
+    generic: bool = False  # the phrase names no colour or shape: every object is in its set
+    at: int = 0  # where it was in its sentence (the reader's bookkeeping)
 
 
 @dataclass(frozen=True)
@@ -121,6 +123,7 @@ class Structure:
     constraints: tuple[str, ...] = ()  # what must stay where it is (as said)
     unknown: tuple[str, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
+    said: str = ""  # the text before superlatives were taken out: where phrases are checked
 
     @property
     def changed(self) -> bool:
@@ -182,7 +185,7 @@ def destination(words: list[str], start: int = 0) -> tuple[int, int] | None:
         for phrase in DESTINATIONS:
             n = len(phrase.split())
             if " ".join(words[i:i + n]) == phrase:
-                if not _QUALIFIERS.intersection(words[max(0, i - 2):i]):
+                if not _QUALIFIERS.intersection(words[max(0, i - 1):i]):
                     best = (i, i + n)
                 i += n - 1
                 break
@@ -321,13 +324,16 @@ def read_structure(text: str) -> Structure:
     extremes: list[Extreme] = []
     out: list[list[str]] = []
     step = 0
+    said: list[str] = []
     for s in kept:
         s, step = _ellipsis(s, step, base_previous, notes)
-        s = _superlatives(s, step, extremes, notes)
+        said.append(" ".join(_tidy(s)) + " .")
+        s = _superlatives(s, len(out), extremes, notes)  # step: its sentence, for now
         step += 1
         out.append(s)
     unknown = tuple(w for w in tokens(text) if w.isalpha() and _sense(w)[2] is Status.UNKNOWN)
     step = count_steps([w for s in out for w in (*s, ".")])
+    extremes = [_extreme_step(e, out, e.step) for e in extremes]
     if step > MAX_STEPS:
         msg = (f"the instruction {text[:80]!r}... asks for about {step} steps; a program has at "
                f"most {MAX_STEPS} (the DSL's limit): give it as instructions of {MAX_STEPS} "
@@ -340,10 +346,10 @@ def read_structure(text: str) -> Structure:
         return Structure("", NO_ACTION, 0, (), (), tuple(constraints), unknown,
                          tuple(notes) or ("nothing to do",))
     if not notes:
-        return Structure(text, None, step, (), (), (), unknown, ())
+        return Structure(text, None, step, (), (), (), unknown, (), text)
     rewritten = " ".join(" ".join(_tidy(s)) + " ." for s in out)
     return Structure(rewritten, None, step, tuple(base_previous), tuple(extremes),
-                     tuple(constraints), unknown, tuple(notes))
+                     tuple(constraints), unknown, tuple(notes), " ".join(said))
 
 
 def _join_taking(sentences: list[list[str]], notes: list[str]) -> list[list[str]]:
@@ -484,18 +490,37 @@ def _superlatives(words: list[str], step: int, extremes: list[Extreme],
                     del out[i]
                     role = _role(out, i)
                     extremes.append(Extreme(_SIDES[out_word(words, k)], int(value), step,
-                                            role, " ".join(words)))
+                                            role, " ".join(words), _generic(out, i), i))
                     notes.append(f"superlative: rank {value} towards {extremes[-1].side}")
                     continue
         if found is not None:
             b, e, side, rank = found
             del out[b:e]
             role = _role(out, b)
-            extremes.append(Extreme(side, rank, step, role, " ".join(words)))
+            extremes.append(Extreme(side, rank, step, role, " ".join(words),
+                                    _generic(out, b), b))
             notes.append(f"superlative: rank {rank} towards {side} ({role})")
             continue
         i += 1
     return out
+
+
+def _generic(words: list[str], at: int) -> bool:
+    """Whether the phrase around ``at`` names no colour and no shape ("the leftmost
+    thing", "the second block from the right")."""
+    if not words:
+        return True
+    at = min(at, len(words) - 1)
+    left = at
+    while left > 0 and at - left < 4 and words[left] not in ("the", "a"):
+        left -= 1
+    right = at
+    while right < len(words) - 1 and right - at < 4 and not (
+            words[right] in SHAPE_NOUNS or words[right] in ("thing", "object", "block",
+                                                            "one", "item", "piece")):
+        right += 1
+    phrase = words[left:right + 1]
+    return not any(w in SHAPE_NOUNS or _sense(w)[0] in ("colour", "shape") for w in phrase)
 
 
 def out_word(words: list[str], k: int) -> str:
@@ -514,7 +539,10 @@ def _role(words: list[str], at: int) -> str:
         if words[k] == "," or is_put_verb(words[k]) or words[k] in TAKE_VERBS:
             start = k
             break
-    dest = destination(words, start)
+    end = at
+    while end < len(words) and words[end] not in (",", "then", "after", "afterwards", "and"):
+        end += 1
+    dest = destination(words[:end], start)
     if dest is None:
         return "subject"
     return "subject" if at <= dest[0] else "base"
@@ -550,7 +578,8 @@ def _verb_at(c: list[str]) -> int | None:
         if w.endswith(("ed", "ing")) and before in ("is", "are", "be", "was") \
                 and w not in _MODALS:
             continue
-        if before in ("that", "which", "who") and w not in _MODALS:
+        if before in ("that", "which", "who") and w not in _MODALS and not (
+                i > 1 and c[i - 2] == "after"):
             continue
         return i
     return None
@@ -588,4 +617,116 @@ def count_steps(words: list[str]) -> int:
             continue
         n += 1
         taking = verb is not None and c[verb] in TAKE_VERBS
+    return n
+
+
+def _extreme_step(e: Extreme, sentences: list[list[str]], k: int) -> Extreme:
+    """``e`` with its step counted as the instruction's steps up to its clause's end."""
+    words = [w for s in sentences[:k] for w in (*s, ".")]
+    own = sentences[k]
+    end = e.at
+    while end < len(own) and own[end] not in _COUNT_CUTS:
+        end += 1
+    n = count_steps([*words, *own[:end]])
+    return replace(e, step=max(0, n - 1))
+
+
+_NP_STOPS: Final = frozenset({"left", "right", "behind", "front", "before", "back", "on",
+                              "onto", "to", "beside", "next", "near", "atop", "above", "over",
+                              "upon", "under", "below", "so", "without", "then", "while",
+                              "alongside", "by", "rear", "at", "in", "towards", "into",
+                              "from", "closest", "nearest", "furthest", "farthest", "just"})
+_RELATION_STOPS: Final = frozenset({"behind", "front", "before", "back", "rear", "near",
+                                    "at", "in"})
+_ATTRIBUTE_LINKS: Final = frozenset({"is", "a", "an", "and", "that", "which", "whose",
+                                     "has", "colour", "color", "shape", "of", "looks", "like",
+                                     "coloured", "colored", "the", "in", "one", "sits",
+                                     "lies", "found", "can", "be", "located", "thing",
+                                     "object", "block", "item"})
+
+
+@dataclass(frozen=True)
+class NounPhrase:
+    """A plain noun phrase (no relation, no superlative): its world colour and shape."""
+
+    words: tuple[str, ...]
+    colour: str | None
+    shape: str | None
+
+
+def plain_phrases(text: str) -> list[NounPhrase]:
+    """The noun phrases of ``text`` that name an object by its colour and/or shape alone
+    ("the red cube", "the block which is a lego and is magenta"): the phrases whose
+    referent a model can check against what it sees. Phrases that refer through another
+    object, rank ("leftmost"), say "only", or name an unknown word are left out."""
+    words = tokens(text)
+    out: list[NounPhrase] = []
+    i = 0
+    while i < len(words):
+        if words[i] != "the" or (i > 0 and words[i - 1] in ("has", "like")) or words[
+                i + 1:i + 2] in (["shape"], ["left"], ["right"], ["back"], ["front"],
+                                 ["top"], ["rear"], ["robot"], ["table"]):
+            i += 1
+            continue
+        j = i + 1
+        colour = shape = None
+        bad = False
+        while j < len(words):
+            w = words[j]
+            if w in (",", ".", ";", "?", "!") or is_put_verb(w) or w in TAKE_VERBS \
+                    or w in _MODALS:
+                break
+            if w in _NP_STOPS and not (w == "in" and words[j + 1:j + 2] in (["colour"],
+                                                                         ["color"])):
+                if w in _RELATION_STOPS or (w in ("left", "right", "on", "to", "beside",
+                                                  "next", "by", "alongside")
+                                            and words[j - 1] in _QUALIFIERS):
+                    bad = True  # refers through another object
+                elif _relation_phrases(words, j) >= 2:
+                    bad = True  # "the dice left of the red lego to the left of ...": one is
+                    # the phrase's own relation
+                break
+            if w == "the" and words[j - 1] not in ("of", "has", "like", "is"):
+                break
+            if w == "and" and j + 1 < len(words) and words[j + 1] not in (
+                    "is", "a", "an", *COLOURS):
+                break
+            cat, value, status = _sense(w)
+            if w in SHAPE_NOUNS:
+                shape = shape or SHAPE_NOUNS[w]
+            elif cat == "colour" and status is Status.KNOWN:
+                colour = colour or value
+            elif cat == "shape" and status is Status.KNOWN:
+                shape = shape or value
+            elif w in ("only", "single", "sole", "one", "ones", "other", "same") \
+                    or cat in ("superlative", "ordinal"):
+                bad = True
+            elif w not in _ATTRIBUTE_LINKS and w not in ("lego", "die", "dice"):
+                if status is Status.UNKNOWN or cat not in ("object", "reference"):
+                    bad = True
+            j += 1
+        if not bad and (colour or shape):
+            out.append(NounPhrase(tuple(words[i:j]), colour, shape))
+        i = max(j, i + 1)
+    return out
+
+
+def _relation_phrases(words: list[str], start: int) -> int:
+    """How many destination or relation phrases the clause has from ``start`` on."""
+    n = 0
+    i = start
+    while i < len(words):
+        w = words[i]
+        if w in (",", ".", ";", "then") or (is_put_verb(w) and i > start) or w in TAKE_VERBS:
+            break
+        if w in _RELATION_STOPS and w != "in":
+            n += 1
+            i += 1
+            continue
+        k = _starts_with_destination(words[i:])
+        if k:
+            n += 1
+            i += k
+            continue
+        i += 1
     return n
