@@ -65,7 +65,8 @@ TAKE_VERBS: Final = frozenset({"pick", "take", "grab", "grasp", "lift", "hold", 
 DIRECTIVES: Final = frozenset({"should", "supposed", "must", "ought", "ensure", "needs",
                                "need", "wants", "want", "let", "belongs", "belong", "goes",
                                "go", "carry", "carries", "support", "supports", "gets", "get"})
-DIRECTIVE_PHRASES: Final = ("has to", "have to", "would like", "make sure", "end up",
+DIRECTIVE_PHRASES: Final = ("form a tower", "make a stack", "build a tower", "make a tower",
+                            "has to", "have to", "would like", "make sure", "end up",
                             "ends up", "to be", "your job", "your task", "use the robot",
                             "using the robot", "with the robot")
 """Words of a sentence that asks for something to be done without an imperative verb
@@ -406,8 +407,7 @@ def _ellipsis(words: list[str], step: int, base_previous: list[int],
             and destination(clauses[k - 1][1]) is None and "it" in clause[:3]
         if k > 0 and not taken:
             step += 1
-        verbless = not any(is_put_verb(w) or w in TAKE_VERBS or w in DIRECTIVES
-                           for w in clause)
+        verbless = not _acts(clause)
         dest = destination(clause)
         if k > 0 and verbless and dest is not None and _shape_or_object(clause[:dest[0]]):
             prev = clauses[k - 1][1]
@@ -594,7 +594,7 @@ def count_steps(words: list[str]) -> int:
     for w in words:
         if w in _COUNT_CUTS:
             clauses.append((w, []))
-        else:
+        elif not (w == "that" and not clauses[-1][1] and clauses[-1][0] == "after"):
             clauses[-1][1].append(w)
     n = 0
     taking = False
@@ -604,7 +604,8 @@ def count_steps(words: list[str]) -> int:
         text = f" {' '.join(c)} "
         verb = _verb_at(c)
         acts = verb is not None or any(f" {p} " in text for p in (
-            "has to", "have to", "make sure", "would like"))
+            "has to", "have to", "make sure", "would like", "form a tower", "make a stack",
+            "build a tower", "make a tower"))
         if not acts:
             dest = destination(c)
             if n and cut in _NEW_STEP and dest is not None and _shape_or_object(c[:dest[0]]) \
@@ -682,7 +683,7 @@ def plain_phrases(text: str) -> list[NounPhrase]:
                                                   "next", "by", "alongside")
                                             and words[j - 1] in _QUALIFIERS):
                     bad = True  # refers through another object
-                elif _relation_phrases(words, j) >= 2:
+                elif not _after_verb(words, i) or _relation_phrases(words, j) >= 2:
                     bad = True  # "the dice left of the red lego to the left of ...": one is
                     # the phrase's own relation
                 break
@@ -730,3 +731,13 @@ def _relation_phrases(words: list[str], start: int) -> int:
             continue
         i += 1
     return n
+
+
+def _after_verb(words: list[str], at: int) -> bool:
+    """Whether the phrase at ``at`` is a step's subject, just after its verb ("put the red
+    cube ..."): a phrase after a destination followed by a relation phrase refers
+    through it ("onto the green block to the left of the lego block")."""
+    k = at - 1
+    while k >= 0 and words[k] in ("up", "down", "over", "please", "just"):
+        k -= 1
+    return k >= 0 and (is_put_verb(words[k]) or words[k] in TAKE_VERBS)
