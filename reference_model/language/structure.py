@@ -591,8 +591,8 @@ def count_steps(words: list[str]) -> int:
     sure"; or, after "then" or a new sentence, an ellipsis), a clause that puts "it" after
     one that took something being the same step."""
     clauses: list[tuple[str, list[str]]] = [(".", [])]
-    for w in words:
-        if w in _COUNT_CUTS:
+    for k, w in enumerate(words):
+        if w in _COUNT_CUTS and not (w == "next" and words[k + 1:k + 2] == ["to"]):
             clauses.append((w, []))
         elif not (w == "that" and not clauses[-1][1] and clauses[-1][0] == "after"):
             clauses[-1][1].append(w)
