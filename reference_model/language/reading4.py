@@ -52,7 +52,7 @@ from nsrmp_bench.reference_model.program.scene3d import TOP, move, project_boxes
 from nsrmp_bench.reference_model.program.training import EpisodeBatch, pad_tokens
 from nsrmp_bench.scoring.submission import Prediction
 
-__all__ = ["StructureSettings", "StructureReadingModel"]
+__all__ = ["StructureReadingModel", "StructureSettings"]
 
 _AXES = {"left": (-1.0, 0.0), "right": (1.0, 0.0), "behind": (0.0, 1.0), "front": (0.0, -1.0)}
 
@@ -109,17 +109,19 @@ def _ranked(members: list[int], centres: np.ndarray, side: str, rank: int) -> in
                      for j in members), reverse=True)
     if len(scored) < rank:
         return None
-    value, chosen = scored[rank - 1]
-    near = scored[rank - 2:rank - 1] if rank > 1 else []
-    near += scored[rank:rank + 1]
-    del near  # the DSL's EXTREME_MARGIN is for the true positions; these are estimates
-    return chosen
+    # no margin: the DSL's EXTREME_MARGIN is for the true positions; these are estimates
+    return scored[rank - 1][1]
 
 
 class StructureReadingModel(ReadingModel):
     """A program model behind the reader of sentence structure (see the module doc)."""
 
     last_confidence: list[_Confidence] | None = None
+
+    def settings(self) -> StructureSettings:
+        """The reader's settings: the config's (a v4 config holds them), else the defaults."""
+        cfg = self.config
+        return cfg if isinstance(cfg, StructureSettings) else StructureSettings()
 
     def structures(self, items: Sequence[Mapping[str, Any]]) -> list[Structure]:
         """The structure of each item's instruction."""
@@ -154,8 +156,8 @@ class StructureReadingModel(ReadingModel):
 
     def _decode_abstain(self, items: Sequence[dict[str, Any]], oracle: Oracle | None = None,
                         ) -> tuple[ProgramData, Decoded, list[str | None]]:
-        cfg = self.config
-        if not getattr(cfg, "structure", True):
+        cfg = self.settings()
+        if not cfg.structure:
             data, decoded = super()._decode(items, oracle)
             return data, decoded, [None] * len(items)
         self.set_threads()
@@ -221,7 +223,7 @@ class StructureReadingModel(ReadingModel):
         begin where actions begin), the splitter's most probable places for that many."""
         splitter = self.model.splitter
         cuts = splitter.cuts(tokens)
-        if not getattr(self.config, "reader_steps", True):
+        if not self.settings().reader_steps:
             return cuts
         probs = torch.sigmoid(splitter(pad_tokens(tokens)))
         for i, (tok, s) in enumerate(zip(tokens, structures, strict=True)):
@@ -239,7 +241,7 @@ class StructureReadingModel(ReadingModel):
         model.eval()
         splitter.eval()
         oracle = oracle or Oracle()
-        members_within = float(self.config.extreme_members)
+        members_within = float(self.settings().extreme_members)
         out = Decoded()
         conf = [_Confidence() for _ in range(len(data))]
         for start in range(0, len(data), batch_size):

@@ -42,7 +42,7 @@ from nsrmp_bench.errors import InvalidArgument
 from nsrmp_bench.reference_model.language.lexicon import Status, lookup
 from nsrmp_bench.vocabulary import COLOURS, MAX_STEPS, SHAPES
 
-__all__ = ["NO_ACTION", "NOT_FEASIBLE", "Extreme", "Structure", "read_structure", "tokens"]
+__all__ = ["NOT_FEASIBLE", "NO_ACTION", "Extreme", "Structure", "read_structure", "tokens"]
 
 NO_ACTION: Final = "no action"
 NOT_FEASIBLE: Final = "not feasible"
@@ -273,7 +273,8 @@ def _constraint_start(words: list[str]) -> int:
         if w in ("and", "but", ","):
             rest = [x for x in words[i + 1:] if x not in (",", "please", "just")]
             if rest[:2] == ["do", "not"] or rest[:1] == ["never"] or (
-                    rest[:1] and rest[0] in _KEEP_VERBS and _keeps(rest[:_constraint_end(rest, 0)])):
+                    rest[:1] and rest[0] in _KEEP_VERBS
+                    and _keeps(rest[:_constraint_end(rest, 0)])):
                 return i
             if rest[:1] == ["making"] and "not" in rest[:8]:
                 return i
@@ -283,7 +284,7 @@ def _constraint_start(words: list[str]) -> int:
 def _constraint_end(words: list[str], start: int) -> int:
     """A constraint runs to the sentence's end or the next step connector."""
     for i in range(start + 1, len(words)):
-        if words[i] == "," and " ".join(words[i + 1:i + 3]) in ("then", "after that") or (
+        if (words[i] == "," and " ".join(words[i + 1:i + 3]) in ("then", "after that")) or (
                 words[i] == "," and words[i + 1:i + 2] == ["then"]):
             return i
     return len(words)
@@ -372,8 +373,7 @@ def _correct(words: list[str], notes: list[str]) -> list[str]:
     """A self-correction replaces what it corrects."""
     text = " ".join(words)
     for marker in _MARKERS:
-        i = text.find(f", {marker} ") if not marker.startswith("i mean") else text.find(
-            f", {marker} ")
+        i = text.find(f", {marker} ")
         if i < 0:
             continue
         before = text[:i].split()
@@ -700,11 +700,10 @@ def plain_phrases(text: str) -> list[NounPhrase]:
             elif cat == "shape" and status is Status.KNOWN:
                 shape = shape or value
             elif w in ("only", "single", "sole", "one", "ones", "other", "same") \
-                    or cat in ("superlative", "ordinal"):
+                    or cat in ("superlative", "ordinal") or (
+                        w not in _ATTRIBUTE_LINKS and w not in ("lego", "die", "dice")
+                        and (status is Status.UNKNOWN or cat not in ("object", "reference"))):
                 bad = True
-            elif w not in _ATTRIBUTE_LINKS and w not in ("lego", "die", "dice"):
-                if status is Status.UNKNOWN or cat not in ("object", "reference"):
-                    bad = True
             j += 1
         if not bad and (colour or shape):
             out.append(NounPhrase(tuple(words[i:j]), colour, shape))

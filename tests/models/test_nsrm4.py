@@ -57,7 +57,7 @@ def test_what_must_not_be_done_abstains(model_id: str, items: list[dict[str, Any
     want = ["no action", "no action", "not feasible", "no action"]
     n = min(len(items), len(said))
     preds = list(load_model(model_id).predict(_said(items[:n], said[:n])))  # type: ignore[attr-defined]
-    for pred, it, why in zip(preds, items[:n], want[:n], strict=True):
+    for pred, why in zip(preds, want[:n], strict=True):
         assert pred.abstain == why and pred.program == ()
         assert pred.step_boxes is None and pred.pick is None
 
