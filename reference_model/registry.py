@@ -137,10 +137,10 @@ _V1_RELEASE = "0.2.0"  # the last release with the v1 models' code and checkpoin
 
 for _retired in (
     RetiredPredictor("nsrm-v1", Kind.PROGRAM, "neuro-symbolic reference model (gold boxes), "
-                     "learnt from initial and final scenes", _V1_RELEASE, "nsrm-v3"),
+                     "learnt from initial and final scenes", _V1_RELEASE, "nsrm-v4"),
     RetiredPredictor("nmn-v1", Kind.PROGRAM, "NMN+ attention baseline (gold boxes, box "
                      "coordinates in the object features), learnt from initial and final "
-                     "scenes", _V1_RELEASE, "nmn-v3"),
+                     "scenes", _V1_RELEASE, "nmn-v4"),
     RetiredPredictor("dense-v1", Kind.DENSE, "dense baseline, not CLIPort: a from-scratch "
                      "two-stream FCN from RGB-D and the instruction to pick and place "
                      "heatmaps, trained on paper-v2/train's single-step episodes",
