@@ -122,6 +122,14 @@ for _entry in (
                "\"above\" read as the world's actions)", f"{_HERE}.nsrm3:NSRM3Model"),
     ModelEntry("nmn-v3", Kind.PROGRAM, "NMN+ attention baseline v3 (gold boxes): NMN+ v2's "
                "networks behind NSRM v3's language front end", f"{_HERE}.nmn3:NMN3Model"),
+    ModelEntry("nsrm-v4", Kind.PROGRAM, "neuro-symbolic reference model v4 (gold boxes): "
+               "NSRM v3's networks and front end behind a reader of sentence structure "
+               "(steps where actions begin, constraints, questions and prohibitions as no "
+               "action, self-corrections, ellipsis, superlatives as extreme, and abstaining "
+               "where a referent is absent or ambiguous)", f"{_HERE}.nsrm4:NSRM4Model"),
+    ModelEntry("nmn-v4", Kind.PROGRAM, "NMN+ attention baseline v4 (gold boxes): NMN+ v3's "
+               "networks behind NSRM v4's reader of sentence structure",
+               f"{_HERE}.nmn4:NMN4Model"),
 ):
     register(_entry)
 
@@ -129,10 +137,10 @@ _V1_RELEASE = "0.2.0"  # the last release with the v1 models' code and checkpoin
 
 for _retired in (
     RetiredPredictor("nsrm-v1", Kind.PROGRAM, "neuro-symbolic reference model (gold boxes), "
-                     "learnt from initial and final scenes", _V1_RELEASE, "nsrm-v3"),
+                     "learnt from initial and final scenes", _V1_RELEASE, "nsrm-v4"),
     RetiredPredictor("nmn-v1", Kind.PROGRAM, "NMN+ attention baseline (gold boxes, box "
                      "coordinates in the object features), learnt from initial and final "
-                     "scenes", _V1_RELEASE, "nmn-v3"),
+                     "scenes", _V1_RELEASE, "nmn-v4"),
     RetiredPredictor("dense-v1", Kind.DENSE, "dense baseline, not CLIPort: a from-scratch "
                      "two-stream FCN from RGB-D and the instruction to pick and place "
                      "heatmaps, trained on paper-v2/train's single-step episodes",

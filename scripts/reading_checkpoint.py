@@ -1,6 +1,9 @@
-"""Write a v3 checkpoint: a v2 checkpoint's networks and vocabulary with the language front
-end's settings (``nsrm-v2`` -> ``nsrm-v3``, ``nmn-v2`` -> ``nmn-v3``).
+"""Write a v3 or v4 checkpoint: the networks and vocabulary of the version before with the
+reading's settings (``nsrm-v2`` -> ``nsrm-v3``, ``nmn-v2`` -> ``nmn-v3``; ``nsrm-v3`` ->
+``nsrm-v4``, ``nmn-v3`` -> ``nmn-v4``: the reader of sentence structure's settings, config
+fields too).
 
+    python scripts/reading_checkpoint.py nsrm-v4 --out reference_model/checkpoints/nsrm-v4.pt
     python scripts/reading_checkpoint.py nsrm-v3 [--from PATH] [--set KEY=VALUE ...]
         [--selection DIR/robustness.json] [--size-prior-from data/paper-v2/val]
         --out reference_model/checkpoints/nsrm-v3.pt
@@ -32,7 +35,7 @@ from nsrmp_bench.reference_model.checkpoints import (
 )
 from nsrmp_bench.reference_model.registry import get_model
 
-SOURCES = {"nsrm-v3": "nsrm-v2", "nmn-v3": "nmn-v2"}
+SOURCES = {"nsrm-v3": "nsrm-v2", "nmn-v3": "nmn-v2", "nsrm-v4": "nsrm-v3", "nmn-v4": "nmn-v3"}
 
 
 def size_prior(part: Path, vocab: list[str]) -> tuple[float, ...]:
@@ -75,6 +78,12 @@ def main() -> None:
                 front_end="the language front end (reference_model/language) with the "
                 "config's settings, selected on paper-v2/val perturbed with the development "
                 "word lists (seed 1001)")
+    if args.model.endswith("-v4"):
+        card["reader"] = (
+            "the reader of sentence structure (reference_model/language/structure.py, "
+            "reading4.py) on the committed lexicon, before the v3 front end; its settings "
+            "(phrase_fit, phrase_twice, extreme_members) selected on semantics-v1/train with "
+            "paper-v2/val's abstentions held at 2% or less; the networks are not retrained")
     if args.size_prior_from is not None:
         card["size_calibration"] = (
             f"the perception's size prior fitted without labels on {args.size_prior_from.name} "

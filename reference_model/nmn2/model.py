@@ -71,6 +71,7 @@ class _RoleAttention(nn.Module):
             both = query[:, None] * key(objects)
             total = total + (both.sum(-1) * self.scale if self.dot
                              else self.score[k](both).squeeze(-1))
+        self.raw_scores = total.masked_fill(~mask, float("-inf")).detach()  # before normalising
         return torch.log_softmax(total.masked_fill(~mask, float("-inf")), -1)
 
 

@@ -124,6 +124,7 @@ class ConceptStepModel(StepModel):
         eye = torch.eye(mask.shape[1], dtype=torch.bool, device=mask.device)
         others = mask[:, None, :] & ~eye[None]
         out = []
+        raw = []
         for k, (head, rel, anchor) in enumerate(_REFS):
             head_w, anchor_w, rel_w = code[..., head], code[..., anchor], code[..., rel]
             if self.cfg.contiguous_references:
@@ -159,7 +160,11 @@ class ConceptStepModel(StepModel):
             pair = pair + anchor_lp[:, None, :]
             related = torch.logsumexp(pair.masked_fill(~others, float("-inf")), -1)
             score = score + torch.nan_to_num(related, neginf=0.0)
+            raw.append(score.masked_fill(~mask, float("-inf")))
             out.append(_masked_log_softmax(score, mask))
+        # each reference's scores before normalising over the objects: how well the best
+        # object fits the words at all (a reader's confidence; nothing trains on it)
+        self.raw_scores = (raw[0].detach(), raw[1].detach())
         action = torch.log_softmax(
             torch.einsum("rt,rtk->rk", code[..., _ACTION], self.action(tokens)), -1)
         return out[0], out[1], action

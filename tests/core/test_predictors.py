@@ -17,7 +17,7 @@ from nsrmp_bench.errors import InvalidArgument, UnknownId
 from nsrmp_bench.predictors import PREDICTORS, Kind, RetiredPredictor, get_predictor, predictors
 from nsrmp_bench.reference_model.registry import MODELS, ModelEntry, get_model, register
 
-RETIRED = {"nsrm-v1": "nsrm-v3", "nmn-v1": "nmn-v3", "dense-v1": "dense-v2",
+RETIRED = {"nsrm-v1": "nsrm-v4", "nmn-v1": "nmn-v4", "dense-v1": "dense-v2",
            "dense5x-v1": "dense5x-v2"}
 """The retired v1 models and the version that replaces each."""
 

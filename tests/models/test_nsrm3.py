@@ -40,8 +40,7 @@ def test_on_templates_v3_predicts_what_v2_does(v3: str, v2: str,
 def test_what_a_person_says_keeps_the_program(items: list[dict[str, Any]]) -> None:
     from nsrmp_bench.reference_model import load_model
 
-    model = load_model("nsrm")
-    assert model.model_id == "nsrm-v3"
+    model = load_model("nsrm-v3")
     plain = [str(it["inputs"]["instruction"]) for it in items]
     said = [f"Could you please {t[:1].lower()}{t[1:-1]}, thanks. That's all." for t in plain]
     said = [t.replace(" red ", " crimson ").replace("cube", "cbue") for t in said]
