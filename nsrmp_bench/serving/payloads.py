@@ -1,0 +1,59 @@
+"""Observations and actions as the protocol's payloads carry them, and back.
+
+An observation payload is the environment's observation with the RGB image under
+``images.main`` and the instruction also under ``task_description`` (vla-eval's
+recommended field names, so its model servers find them); everything else keeps its
+name (``depth``, ``instruction``, ``camera``, ``boxes``, ``object_mask``, ``box_scores``,
+and in the end-effector mode ``proprio``). An action payload is the environment's action
+as a map (a :class:`~nsrmp_bench.dsl.program.GroundedStep` becomes ``{"step": [action,
+subject, reference]}``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from nsrmp_bench.dsl.program import GroundedStep
+from nsrmp_bench.errors import PolicyServerError
+
+__all__ = ["action_from_payload", "action_payload", "observation_from_payload",
+           "observation_payload"]
+
+
+def observation_payload(observation: Mapping[str, Any]) -> dict[str, Any]:
+    """The payload of an ``observation`` message for an environment observation."""
+    out = {k: v for k, v in observation.items() if k != "rgb"}
+    out["images"] = {"main": observation["rgb"]}
+    out["task_description"] = observation["instruction"]
+    return out
+
+
+def observation_from_payload(payload: Mapping[str, Any]) -> dict[str, Any]:
+    """The environment observation an ``observation`` payload holds."""
+    images = payload.get("images")
+    if not isinstance(images, Mapping) or "main" not in images:
+        msg = (f"an observation payload needs images.main (the RGB image); got keys "
+               f"{sorted(payload)}")
+        raise PolicyServerError(msg)
+    out = {k: v for k, v in payload.items() if k not in ("images", "task_description")}
+    out["rgb"] = images["main"]
+    out.setdefault("instruction", payload.get("task_description", ""))
+    return out
+
+
+def action_payload(action: Any) -> dict[str, Any]:
+    """The payload of an ``action`` message for what a policy returned."""
+    if isinstance(action, GroundedStep):
+        return {"step": [action.action, action.subject, action.reference]}
+    if not isinstance(action, Mapping):
+        msg = (f"the policy returned a {type(action).__name__} ({action!r:.80}); a policy "
+               "returns a dict action ({'pick': ..., 'place': ..., 'done': 0}, {'step': "
+               "...}, {'done': 1}, or in the ee mode {'ee': ..., 'gripper': ...})")
+        raise PolicyServerError(msg)
+    return {str(k): v for k, v in action.items()}
+
+
+def action_from_payload(payload: Mapping[str, Any]) -> dict[str, Any]:
+    """The environment action an ``action`` payload holds (the environment checks it)."""
+    return dict(payload)

@@ -1,0 +1,83 @@
+"""The server's answers to a client that breaks the protocol (a real server on 127.0.0.1
+in a thread, a real WebSocket client)."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Iterator
+
+import pytest
+
+pytest.importorskip("websockets")
+
+import msgpack
+from websockets.sync.client import connect
+
+from nsrmp_bench.errors import PolicyServerError
+from nsrmp_bench.serving.client import PolicyClient
+from nsrmp_bench.serving.server import PolicyServer
+from nsrmp_bench.serving.wire import PROTOCOL, Message, decode, encode
+
+
+def stop(observation: dict[str, object]) -> dict[str, int]:
+    return {"done": 1}
+
+
+def broken(observation: dict[str, object]) -> dict[str, int]:
+    raise ZeroDivisionError("the policy's own bug")
+
+
+@pytest.fixture()
+def server_url(request: pytest.FixtureRequest) -> Iterator[str]:
+    server = PolicyServer(getattr(request, "param", stop), port=0)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield server.url
+    finally:
+        server.shutdown()
+        thread.join(timeout=10)
+
+
+def _hello(version: str = "1.0") -> bytes:
+    return encode(Message("hello", {"protocol": PROTOCOL, "protocol_version": version}))
+
+
+def test_garbage_gets_an_error_and_the_connection_closes(server_url: str) -> None:
+    with connect(server_url, open_timeout=5) as ws:
+        ws.send(b"\x00\x01 not msgpack")
+        reply = decode(ws.recv(timeout=5), "server")
+        assert reply.type == "error" and "not one msgpack message" in reply.payload["error"]
+        with pytest.raises(Exception, match="1002|closed"):
+            ws.recv(timeout=5)
+
+
+def test_another_major_version_is_refused_by_the_server(server_url: str) -> None:
+    with connect(server_url, open_timeout=5) as ws:
+        ws.send(_hello("9.1"))
+        reply = decode(ws.recv(timeout=5), "server")
+        assert reply.type == "error" and "major versions differ" in reply.payload["error"]
+
+
+def test_an_observation_outside_an_episode_is_an_error(server_url: str) -> None:
+    with connect(server_url, open_timeout=5) as ws:
+        ws.send(_hello())
+        assert decode(ws.recv(timeout=5), "server").type == "hello"
+        ws.send(msgpack.packb({"type": "observation", "payload": {}, "seq": 3,
+                               "timestamp": 0.0}))
+        reply = decode(ws.recv(timeout=5), "server")
+        assert reply.type == "error" and reply.seq == 3
+        assert "outside an episode" in reply.payload["error"]
+
+
+@pytest.mark.parametrize("server_url", [broken], indirect=True)
+def test_a_policy_that_raises_is_reported_to_the_client(server_url: str) -> None:
+    import numpy as np
+
+    with PolicyClient(server_url, timeout=5) as client:
+        hello = client.connect()
+        assert hello["policy"] == "broken"
+        client.start_episode({"instance": "x-000000"})
+        obs = {"rgb": np.zeros((2, 2, 3), np.uint8), "instruction": "stack them"}
+        with pytest.raises(PolicyServerError, match="ZeroDivisionError: the policy's own bug"):
+            client.act(obs)
