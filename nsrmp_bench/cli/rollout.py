@@ -226,7 +226,8 @@ def _run_remote(args: argparse.Namespace) -> int:
     with PolicyClient(args.server, timeout=args.timeout,
                       connect_timeout=args.connect_timeout, control=args.control) as client:
         hello = client.connect()
-        policy, label = str(hello.get("policy", "")), str(hello.get("label", ""))
+        policy = str(hello.get("policy") or hello.get("model_server") or "")
+        label = str(hello.get("label") or policy)
         if not policy:
             policy = label = "remote"
         if args.policy is not None and args.policy != policy:

@@ -93,7 +93,8 @@ class PolicyClient:
         reply = self._ask(Message("hello", {
             "protocol": PROTOCOL, "protocol_version": PROTOCOL_VERSION,
             "harness_version": f"nsrmp-bench {__version__}", "control": self.control}), "hello")
-        check_version(reply.payload, self.peer)
+        if "protocol" in reply.payload:  # a vla-eval model server's hello names none
+            check_version(reply.payload, self.peer)
         self.server = dict(reply.payload)
         return self.server
 

@@ -14,7 +14,8 @@ policy is built per connection; a callable is shared, its calls serialised). The
 answers ``hello`` with its own, each ``observation`` with an ``action`` of the same
 ``seq``, and anything it cannot take (a malformed frame, another major version, an
 observation before ``episode_start``, a policy that raises) with an ``error`` naming the
-fault; a malformed frame or a wrong version also closes the connection. The policy's
+fault; a malformed frame or a wrong version also closes the connection. A client that
+sends no ``hello`` (vla-eval's older clients) is served as one of this major version. The policy's
 ``reset(observation, info)``, where it has one, is called on each episode's first
 observation.
 """
@@ -56,22 +57,18 @@ class _Session:
         self.env = ServedEnv(data, part)
         self.lock = lock
         self.policy: Any = None
-        self.greeted = False
         self.in_episode = False
         self.fresh = False
 
     def hello(self, message: Message) -> dict[str, Any]:
         check_version(message.payload, _CLIENT)
-        self.greeted = True
         return {"protocol": PROTOCOL, "protocol_version": PROTOCOL_VERSION,
                 "harness_version": f"nsrmp-bench {__version__}", "model_server": "nsrmp-bench",
                 "policy": self.offered.name, "label": self.offered.label,
                 "boxes": self.offered.boxes}
 
     def start(self, message: Message) -> None:
-        if not self.greeted:
-            msg = "episode_start before hello; the client says hello first"
-            raise PolicyServerError(msg)
+        # a client without hello (vla-eval's older clients send none) is served as 1.x
         self.env.start(message.payload)
         if self.policy is None:
             self.policy = self.offered.factory(self.env)

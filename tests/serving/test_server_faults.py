@@ -48,7 +48,7 @@ def test_garbage_gets_an_error_and_the_connection_closes(server_url: str) -> Non
         ws.send(b"\x00\x01 not msgpack")
         reply = decode(ws.recv(timeout=5), "server")
         assert reply.type == "error" and "not one msgpack message" in reply.payload["error"]
-        with pytest.raises(Exception, match="1002|closed"):
+        with pytest.raises(Exception, match=r"1002|closed"):
             ws.recv(timeout=5)
 
 
@@ -81,3 +81,16 @@ def test_a_policy_that_raises_is_reported_to_the_client(server_url: str) -> None
         obs = {"rgb": np.zeros((2, 2, 3), np.uint8), "instruction": "stack them"}
         with pytest.raises(PolicyServerError, match="ZeroDivisionError: the policy's own bug"):
             client.act(obs)
+
+
+def test_a_client_without_hello_is_served(server_url: str) -> None:
+    """vla-eval's older clients send episode_start first."""
+    import numpy as np
+
+    with connect(server_url, open_timeout=5) as ws:
+        ws.send(encode(Message("episode_start", {"instance": "x-000001"}, seq=1)))
+        ws.send(encode(Message("observation", {
+            "images": {"main": np.zeros((2, 2, 3), np.uint8)},
+            "task_description": "stack them"}, seq=2)))
+        reply = decode(ws.recv(timeout=5), "server")
+        assert (reply.type, reply.seq, dict(reply.payload)) == ("action", 2, {"done": 1})
