@@ -104,6 +104,10 @@ class PolicyClient:
 
     def act(self, observation: Mapping[str, Any]) -> dict[str, Any]:
         """The server's action for an environment observation."""
+        keys = self.server.get("observation_keys")
+        if isinstance(keys, list):  # the server reads only these (and the instruction)
+            wanted = {*map(str, keys), "instruction"}
+            observation = {k: v for k, v in observation.items() if k in wanted}
         reply = self._ask(Message("observation", observation_payload(observation),
                                   self._next()), "action")
         return action_from_payload(reply.payload)

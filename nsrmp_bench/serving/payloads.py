@@ -24,20 +24,22 @@ __all__ = ["action_from_payload", "action_payload", "observation_from_payload",
 def observation_payload(observation: Mapping[str, Any]) -> dict[str, Any]:
     """The payload of an ``observation`` message for an environment observation."""
     out = {k: v for k, v in observation.items() if k != "rgb"}
-    out["images"] = {"main": observation["rgb"]}
+    if "rgb" in observation:
+        out["images"] = {"main": observation["rgb"]}
     out["task_description"] = observation["instruction"]
     return out
 
 
 def observation_from_payload(payload: Mapping[str, Any]) -> dict[str, Any]:
     """The environment observation an ``observation`` payload holds."""
-    images = payload.get("images")
-    if not isinstance(images, Mapping) or "main" not in images:
-        msg = (f"an observation payload needs images.main (the RGB image); got keys "
-               f"{sorted(payload)}")
+    images = payload.get("images", {})
+    if not isinstance(images, Mapping):
+        msg = (f"an observation payload's images must be a map (images.main: the RGB "
+               f"image); got {type(images).__name__}")
         raise PolicyServerError(msg)
     out = {k: v for k, v in payload.items() if k not in ("images", "task_description")}
-    out["rgb"] = images["main"]
+    if "main" in images:
+        out["rgb"] = images["main"]
     out.setdefault("instruction", payload.get("task_description", ""))
     return out
 

@@ -156,6 +156,9 @@ class ServedPolicy:
     label: str
     boxes: str | None
     factory: PolicyFactory
+    observation_keys: tuple[str, ...] | None = None
+    """The observation entries the policy reads (None: all); the rollout sends only these
+    (and the instruction)."""
 
 
 def served_policy(policy: str | Callable[..., Any]) -> ServedPolicy:
@@ -181,6 +184,10 @@ def served_policy(policy: str | Callable[..., Any]) -> ServedPolicy:
     from nsrmp_bench.envs.policies import make_policy, policy_predictor, reads_boxes
 
     entry = policy_predictor(policy)
+    from nsrmp_bench.predictors import Kind
+
     boxes = "gold" if reads_boxes(policy) else None
     label = entry.id if entry is not None and boxes is not None else policy
-    return ServedPolicy(policy, label, boxes, lambda env: make_policy(policy, env))
+    # a baseline reads the episode, not the observations: the instruction alone is sent
+    keys = ("instruction",) if entry is not None and entry.kind is Kind.BASELINE else None
+    return ServedPolicy(policy, label, boxes, lambda env: make_policy(policy, env), keys)

@@ -24,7 +24,8 @@ from __future__ import annotations
 
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Final
 
@@ -65,7 +66,9 @@ class _Session:
         return {"protocol": PROTOCOL, "protocol_version": PROTOCOL_VERSION,
                 "harness_version": f"nsrmp-bench {__version__}", "model_server": "nsrmp-bench",
                 "policy": self.offered.name, "label": self.offered.label,
-                "boxes": self.offered.boxes}
+                "boxes": self.offered.boxes,
+                "observation_keys": (None if self.offered.observation_keys is None
+                                     else list(self.offered.observation_keys))}
 
     def start(self, message: Message) -> None:
         # a client without hello (vla-eval's older clients send none) is served as 1.x
@@ -94,11 +97,13 @@ class PolicyServer:
     """A policy served over WebSocket; :meth:`serve_forever` runs it (see the module)."""
 
     def __init__(self, policy: str | Callable[..., Any], *, host: str = "127.0.0.1",
-                 port: int = 0, data: str | Path | None = None,
-                 part: str | None = None) -> None:
+                 port: int = 0, data: str | Path | None = None, part: str | None = None,
+                 observation_keys: Sequence[str] | None = None) -> None:
         sync_server = require("websockets.sync.server")
         require("msgpack")
         self.offered = served_policy(policy)
+        if observation_keys is not None:
+            self.offered = replace(self.offered, observation_keys=tuple(observation_keys))
         self.data, self.part = data, part
         if data is not None:
             ServedEnv(data, part)  # a wrong part is said now, not at the first episode
@@ -170,13 +175,16 @@ class PolicyServer:
 
 def serve(policy: str | Callable[..., Any], *, port: int = 8765, host: str = "127.0.0.1",
           data: str | Path | None = None, part: str | None = None,
+          observation_keys: Sequence[str] | None = None,
           ready: Callable[[str], None] | None = None) -> None:
     """Serve ``policy`` (a registered policy's name, ``module:callable`` or a callable
     ``observation -> action``) on ``ws://host:port`` until interrupted. ``data`` (and
     ``part``) give the part a privileged policy (``oracle``) reads its episodes from;
-    ``ready`` is called with the URL once the server listens (``port=0`` picks a free
-    port)."""
-    server = PolicyServer(policy, host=host, port=port, data=data, part=part)
+    ``observation_keys`` names the observation entries the policy reads (the rollout then
+    sends only these and the instruction; default all); ``ready`` is called with the URL
+    once the server listens (``port=0`` picks a free port)."""
+    server = PolicyServer(policy, host=host, port=port, data=data, part=part,
+                          observation_keys=observation_keys)
     if ready is not None:
         ready(server.url)
     server.serve_forever()

@@ -57,9 +57,11 @@ def _pack_default(obj: Any) -> Any:
             msg = (f"an array of dtype {obj.dtype} cannot be sent; the protocol carries "
                    "bool, int and float arrays: convert it (e.g. .astype(np.float32))")
             raise PolicyServerError(msg)
-        arr = np.ascontiguousarray(obj)
-        return {_NDARRAY: True, "data": arr.tobytes(), "dtype": arr.dtype.str,
-                "shape": list(arr.shape)}
+        # (np.ascontiguousarray would make a 0-d array 1-d)
+        arr = obj if obj.flags.c_contiguous else obj.copy(order="C")
+        small = arr.ndim == 0 or arr.size == 0  # memoryview.cast refuses these
+        return {_NDARRAY: True, "data": arr.tobytes() if small else arr.data.cast("B"),
+                "dtype": arr.dtype.str, "shape": list(arr.shape)}
     if isinstance(obj, np.bool_):
         return bool(obj)
     if isinstance(obj, np.integer):

@@ -36,6 +36,15 @@ def test_arrays_and_scalars_round_trip_exactly() -> None:
     assert back.payload["pair"] == [1.25, 2.5]
 
 
+@pytest.mark.parametrize("array", [
+    np.array(3.5), np.array([True, False]), np.zeros((0, 4), np.float32),
+    np.arange(6, dtype=">i4").reshape(2, 3), np.arange(12.0).reshape(3, 4)[:, ::2]])
+def test_every_shape_and_byte_order_round_trips(array: np.ndarray) -> None:
+    back = decode(encode(Message("action", {"a": array})), "test").payload["a"]
+    assert back.dtype == array.dtype and back.shape == array.shape
+    np.testing.assert_array_equal(back, array)
+
+
 def test_the_observation_payload_carries_vla_eval_field_names() -> None:
     obs = {"rgb": np.zeros((2, 2, 3), np.uint8), "depth": np.ones((2, 2), np.float32),
            "instruction": "put the red cube on the blue dice"}
