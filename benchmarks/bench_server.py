@@ -1,15 +1,16 @@
 """The policy server's overhead per step against the same policy in process.
 
     python benchmarks/bench_server.py DATA [--part test] [--episodes 16] [--repeat 3]
-                                      [--policy oracle]
+                                      [--policy oracle] [--observation-keys all|declared]
 
 Runs the first ``--episodes`` instances of the part twice per repeat, alternating: the
 policy in this process (``rollout POLICY``'s loop), and the same policy served by
 ``nsrmp-bench serve POLICY --data DATA`` in a child process on 127.0.0.1 (``rollout
---server``'s loop: one ``observation``/``action`` round trip per step, the environment's
-images in every observation). Times the loop only (the environment's resets and steps and
-the policy's calls, not the server's start). Prints per repeat and as the median: ms per
-environment step in process and through the server, and the overhead in per cent
+--server``'s loop: one ``observation``/``action`` round trip per step). Times the loop only (the environment's resets and steps and
+the policy's calls, not the server's start). ``--observation-keys all`` (the default)
+sends the full observation, images included, whatever the policy reads; ``declared`` what
+the served policy declares it reads (the oracle: the instruction alone). Prints per
+repeat and as the median: ms per environment step in process and through the server, and the overhead in per cent
 ((server - in process) / in process), in wall time (as a user sees it; on a loaded machine
 each of the three hand-offs per step between the processes waits for a core) and in CPU
 time (the rollout's process plus the server's, from /proc: the work the protocol adds).
@@ -58,9 +59,12 @@ def _loop(env: TabletopEnv, policy: Any, episodes: int, client: PolicyClient | N
     return time.perf_counter() - t, cpu, steps
 
 
-def _server(policy: str, data: str, part: str | None) -> tuple[subprocess.Popen[str], str]:
+def _server(policy: str, data: str, part: str | None, keys: str
+            ) -> tuple[subprocess.Popen[str], str]:
     code = "from nsrmp_bench.cli.main import main; raise SystemExit(main())"
     args = [sys.executable, "-c", code, "serve", policy, "--data", data, "--port", "0"]
+    if keys != "declared":
+        args += ["--observation-keys", keys]
     if part:
         args += ["--part", part]
     proc = subprocess.Popen(args, stderr=subprocess.PIPE, text=True)
@@ -80,10 +84,14 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=16)
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--policy", default="oracle")
+    parser.add_argument("--observation-keys", default="all",
+                        help="what the server asks for: all (the full observation, images "
+                             "included: default), declared (what the policy declares: the "
+                             "oracle the instruction alone) or KEY,...")
     args = parser.parse_args()
     env = TabletopEnv(args.data, part=args.part or "test")
     local = make_policy(args.policy, env)
-    proc, url = _server(args.policy, args.data, args.part)
+    proc, url = _server(args.policy, args.data, args.part, args.observation_keys)
     try:
         with PolicyClient(url, timeout=60) as client:
             client.connect()
@@ -111,7 +119,8 @@ def main() -> None:
     med = [statistics.median(c) for c in zip(*rows, strict=True)]
     print(f"median: wall ms/step in process {med[0]:.2f}, through the server {med[1]:.2f}, "
           f"overhead {med[2]:+.1f}%; CPU ms/step {med[3]:.2f} against {med[4]:.2f}, "
-          f"overhead {med[5]:+.1f}% ({args.policy}, {args.episodes} episodes, "
+          f"overhead {med[5]:+.1f}% ({args.policy}, observation keys "
+          f"{args.observation_keys}, {args.episodes} episodes, "
           f"{args.repeat} repeats; load average {os.getloadavg()[0]:.1f})")
 
 

@@ -36,6 +36,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data", type=Path, default=None,
                         help="the part the privileged baselines read episodes from")
     parser.add_argument("--part", default=None, help="with a split root as --data: the part")
+    parser.add_argument("--observation-keys", default=None, metavar="KEY,...|all",
+                        help="the observation entries the policy reads, e.g. "
+                             "instruction,boxes,object_mask (the rollout sends only these; "
+                             "default: all, or the instruction alone for the baselines, "
+                             "which read the episode)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -50,8 +55,16 @@ def run(args: argparse.Namespace) -> int:
     if not 0 <= args.port <= 65535:
         msg = f"--port must be 0..65535, got {args.port}"
         raise InvalidArgument(msg)
+    keys = args.observation_keys
+    wanted: list[str] | None = None
+    if keys is not None and keys != "all":
+        wanted = [k.strip() for k in keys.split(",") if k.strip()]
     server = PolicyServer(args.policy, host=args.host, port=args.port, data=args.data,
-                          part=args.part)
+                          part=args.part, observation_keys=wanted)
+    if keys == "all":
+        from dataclasses import replace
+
+        server.offered = replace(server.offered, observation_keys=None)
     print(f"serving {server.offered.name} on {server.url}", file=sys.stderr, flush=True)
     try:
         server.serve_forever()
