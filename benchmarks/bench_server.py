@@ -6,14 +6,15 @@
 Runs the first ``--episodes`` instances of the part twice per repeat, alternating: the
 policy in this process (``rollout POLICY``'s loop), and the same policy served by
 ``nsrmp-bench serve POLICY --data DATA`` in a child process on 127.0.0.1 (``rollout
---server``'s loop: one ``observation``/``action`` round trip per step). Times the loop only (the environment's resets and steps and
-the policy's calls, not the server's start). ``--observation-keys all`` (the default)
-sends the full observation, images included, whatever the policy reads; ``declared`` what
-the served policy declares it reads (the oracle: the instruction alone). Prints per
-repeat and as the median: ms per environment step in process and through the server, and the overhead in per cent
-((server - in process) / in process), in wall time (as a user sees it; on a loaded machine
-each of the three hand-offs per step between the processes waits for a core) and in CPU
-time (the rollout's process plus the server's, from /proc: the work the protocol adds).
+--server``'s loop: one ``observation``/``action`` round trip per step). Times the loop
+only (the environment's resets and steps and the policy's calls, not the server's start).
+``--observation-keys all`` (the default) sends the full observation, images included,
+whatever the policy reads; ``declared`` what the served policy declares it reads (the
+oracle: the instruction alone). Prints per repeat and as the median: ms per environment
+step in process and through the server, and the overhead in per cent ((server - in
+process) / in process), in wall time (as a user sees it; on a loaded machine each of the
+three hand-offs per step between the processes waits for a core) and in CPU time (the
+rollout's process plus the server's, from /proc: the work the protocol adds).
 """
 
 from __future__ import annotations
