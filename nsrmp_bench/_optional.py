@@ -43,6 +43,7 @@ _EXTRA_OF: dict[str, str] = {
     "yaml": "challenge",
     "websockets": "serve",
     "msgpack": "serve",
+    "vla_eval": "vla-eval",
 }
 
 

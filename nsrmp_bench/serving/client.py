@@ -110,7 +110,7 @@ class PolicyClient:
             observation = {k: v for k, v in observation.items() if k in wanted}
         reply = self._ask(Message("observation", observation_payload(observation),
                                   self._next()), "action")
-        return action_from_payload(reply.payload)
+        return action_from_payload(reply.payload, self.control)
 
     def end_episode(self, result: Mapping[str, Any]) -> None:
         """Send ``episode_end`` with the episode's result."""

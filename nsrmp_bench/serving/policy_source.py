@@ -86,6 +86,9 @@ class ServedEnv:
     def start(self, payload: Mapping[str, Any]) -> None:
         """Take in an ``episode_start``."""
         instance = payload.get("instance")
+        task = payload.get("task")  # vla-eval's runner sends {"task": {...}}
+        if instance is None and isinstance(task, Mapping):
+            instance = task.get("instance", task.get("name"))
         if not isinstance(instance, str) or not instance:
             msg = f"episode_start must name its instance (a string id); got {instance!r}"
             raise PolicyServerError(msg)

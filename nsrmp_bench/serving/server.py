@@ -62,7 +62,8 @@ class _Session:
         self.fresh = False
 
     def hello(self, message: Message) -> dict[str, Any]:
-        check_version(message.payload, _CLIENT)
+        if "protocol" in message.payload:  # a vla-eval client's hello names none
+            check_version(message.payload, _CLIENT)
         return {"protocol": PROTOCOL, "protocol_version": PROTOCOL_VERSION,
                 "harness_version": f"nsrmp-bench {__version__}", "model_server": "nsrmp-bench",
                 "policy": self.offered.name, "label": self.offered.label,
