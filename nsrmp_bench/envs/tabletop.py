@@ -39,6 +39,15 @@ program policies: ``{"step": (action, subject, reference)}`` with ``action`` one
 the current physical state. A pick point on no object, or a place point whose ray meets
 no support, moves nothing (``info["failure"]`` says why).
 
+**End-effector control** (``control="ee"``; ``"pick_place"`` is the default): the action
+is ``{"ee": (dx, dy, dz, dyaw), "gripper": 0..1, "done": 0}``, a change of the Panda's
+grasp-target pose (m, rad; clipped to 5 cm per axis and 0.5 rad) and a finger opening
+(1 open, 0 closed) over one 0.1 s control step, through the robot executor's inverse
+kinematics (:mod:`nsrmp_bench.generators.robot.ee_control`); the observation adds
+``proprio`` (12 float32) and is rendered with the arm in view; the episode is truncated
+after :data:`EE_STEPS_PER_MOVE` control steps per allowed move, and the settled scene is
+scored as in the default mode. The executor is then always the Panda.
+
 **Executors**: ``teleport`` (the object is put at its target and physics settles, as in
 generation) or ``robot`` (the Panda picks and places it; slower).
 
