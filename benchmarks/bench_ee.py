@@ -2,18 +2,18 @@
 one core, and the scripted ``oracle-ee``'s success.
 
     taskset -c 0 python benchmarks/bench_ee.py (--data DATA | --split paper-v2) [--part test]
-                                               [--limit N] [--repeat 1]
+                                               [--start 0] [--limit N] [--repeat 1]
 
-Runs ``oracle-ee`` on the first ``--limit`` instances of the part (a generated part with
-``--data``; with ``--split`` each instance is generated on the fly, which adds to the reset
-time only) in this one process, BLAS threads pinned to 1. Each control step is one
+Runs ``oracle-ee`` on ``--limit`` instances of the part from ``--start`` (a generated part
+with ``--data``; with ``--split`` each instance is generated on the fly, which adds to the
+reset time only) in this one process, BLAS threads pinned to 1. Each control step is one
 ``env.step``: 0.1 s of simulated time (24 physics steps of the Panda, inverse kinematics
 every 4), the settled scene's measurement and a full 320x240 render with the arm in view.
-Prints per repeat: control steps per second counting only the steps (the policy included;
-in wall time, and in this process's CPU time, which is what a core of its own would give
-where other processes share it),
-the same counting resets, ms per reset, and the success (the scorer's: every moved
-object's box IoU >= 0.5 with gold) with the number of instances truncated.
+Prints per repeat: control steps per second counting only the steps (the policy
+included; in wall time, and in this process's CPU time, which is what a core of its own
+would give where other processes share it), the same counting resets, ms per reset, and
+the success (the scorer's: every moved object's box IoU >= 0.5 with gold) with the number
+of instances truncated.
 """
 
 from __future__ import annotations
@@ -38,17 +38,20 @@ def main() -> None:
     src.add_argument("--split")
     parser.add_argument("--part", default="test")
     parser.add_argument("--limit", type=int, default=16)
+    parser.add_argument("--start", type=int, default=0,
+                        help="the first instance (position in the part) to run")
     parser.add_argument("--repeat", type=int, default=1)
     args = parser.parse_args()
     env = TabletopEnv(args.data, split=args.split, part=args.part, control="ee")
     policy = make_policy("oracle-ee", env)
-    n = min(args.limit, len(env.source.ids))
+    first = max(0, args.start)
+    n = max(0, min(args.limit, len(env.source.ids) - first))
     for r in range(args.repeat):
         reset_s = step_s = step_cpu = 0.0
         steps = ok = cut = 0
         for i in range(n):
             t = time.perf_counter()
-            obs, info = env.reset(options={"instance": i})
+            obs, info = env.reset(options={"instance": first + i})
             policy.reset(obs, info)  # type: ignore[attr-defined]
             reset_s += time.perf_counter() - t
             while True:
@@ -61,7 +64,7 @@ def main() -> None:
                     break
             ok += bool(info["is_success"])
             cut += bool(truncated)
-        print(f"repeat {r + 1}: {n} instances, {steps} control steps; "
+        print(f"repeat {r + 1}: {n} instances from {first}, {steps} control steps; "
               f"{steps / step_s:.1f} control steps/s ({1000 * step_s / steps:.1f} ms each; "
               f"CPU {1000 * step_cpu / steps:.1f} ms each = {steps / step_cpu:.1f}/s of a "
               f"whole core), "
