@@ -3,8 +3,11 @@ in a thread, a real WebSocket client)."""
 
 from __future__ import annotations
 
+import contextlib
+import re
 import threading
 from collections.abc import Iterator
+from typing import Any
 
 import pytest
 
@@ -94,3 +97,50 @@ def test_a_client_without_hello_is_served(server_url: str) -> None:
             "task_description": "stack them"}, seq=2)))
         reply = decode(ws.recv(timeout=5), "server")
         assert (reply.type, reply.seq, dict(reply.payload)) == ("action", 2, {"done": 1})
+
+
+@contextlib.contextmanager
+def _fake_server(reply: bytes) -> Iterator[str]:
+    """A real WebSocket server on 127.0.0.1 that answers every frame with ``reply``."""
+    from websockets.sync.server import serve
+
+    def handler(ws: Any) -> None:
+        for _ in ws:
+            ws.send(reply)
+
+    server = serve(handler, "127.0.0.1", 0)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield f"ws://127.0.0.1:{server.socket.getsockname()[1]}"
+    finally:
+        server.shutdown()
+        thread.join(timeout=10)
+
+
+@pytest.mark.parametrize(("reply", "words"), [
+    (encode(Message("hello", {"protocol": PROTOCOL, "protocol_version": "9.0"})),
+     "major versions differ"),
+    (b"\xc1 not msgpack", "not one msgpack message"),
+    (encode(Message("action", {"done": 1}, seq=0)), "answered hello seq 0 with action"),
+    (encode(Message("hello", {"protocol": "another-protocol"})), "does not speak"),
+])
+def test_the_client_names_a_server_that_breaks_the_protocol(reply: bytes, words: str) -> None:
+    with (_fake_server(reply) as url, PolicyClient(url, timeout=5) as client,
+          pytest.raises(PolicyServerError, match=re.escape(words))):
+        client.connect()
+
+
+def test_a_listener_that_never_shakes_hands_is_bounded_by_the_connect_timeout() -> None:
+    import socket
+    import time
+
+    with socket.socket() as listener:  # accepts TCP, never answers the WebSocket handshake
+        listener.bind(("127.0.0.1", 0))
+        listener.listen()
+        url = f"ws://127.0.0.1:{listener.getsockname()[1]}"
+        t0 = time.monotonic()
+        with PolicyClient(url, connect_timeout=1.0) as client, \
+                pytest.raises(PolicyServerError, match=r"within 1 s|cannot connect"):
+            client.connect()
+        assert time.monotonic() - t0 < 10
