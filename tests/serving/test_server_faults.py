@@ -144,3 +144,19 @@ def test_a_listener_that_never_shakes_hands_is_bounded_by_the_connect_timeout() 
                 pytest.raises(PolicyServerError, match=r"within 1 s|cannot connect"):
             client.connect()
         assert time.monotonic() - t0 < 10
+
+
+def test_a_callable_server_imports_no_simulator_and_no_torch() -> None:
+    """What lets a policy's own venv hold only nsrmp-bench[serve] (docs/policy-server.md)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from nsrmp_bench.cli.serve import run; "
+            "import nsrmp_bench.reference_model.registry; "
+            "from nsrmp_bench.serving.server import PolicyServer; "
+            "s = PolicyServer('json:dumps', port=0); s._server.socket.close(); "
+            "print(sorted({m.split('.')[0] for m in sys.modules} "
+            "& {'torch', 'gymnasium', 'pybullet', 'cv2'}))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, check=True)
+    assert done.stdout.strip() == "[]"
