@@ -64,8 +64,11 @@ def rollout_remote(config: Any, ids: Sequence[str], client: PolicyClient,
         for instance in ids:
             if instance in journal.records:
                 continue
+            reconnect = False
             for attempt in range(retries + 1):
                 try:
+                    if reconnect:  # a failed reconnection counts as an attempt too
+                        client.connect()
                     prediction, summary = run_episode(env, policy, instance)
                     client.end_episode({"instance": instance,
                                         "is_success": summary["is_success"],
@@ -76,7 +79,7 @@ def rollout_remote(config: Any, ids: Sequence[str], client: PolicyClient,
                     if attempt == retries:
                         raise
                     time.sleep(min(2.0, 0.5 * (attempt + 1)))
-                    client.connect()
+                    reconnect = True
             journal.add(prediction, summary)
             done += 1
             if progress is not None:

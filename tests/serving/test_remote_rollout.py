@@ -106,3 +106,53 @@ def test_no_server_is_a_sentence(smoke_v2_test: Path, tmp_path: Path,
                  "--quiet"]) != 0
     assert "cannot connect to the policy server" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_restarted_server_is_reconnected_to_and_the_bytes_hold(
+        smoke_v2_test: Path, tmp_path: Path, serve_process: Any) -> None:
+    import os
+    import socket
+    import subprocess
+    import sys
+    import threading
+
+    (tmp_path / "alternating.py").write_text(POLICY)
+    args = ["--data", str(smoke_v2_test), "--limit", LIMIT, "--boxes", "gold", "--quiet"]
+    whole = tmp_path / "whole.jsonl"
+    with serve_process(["alternating:policy"], cwd=tmp_path) as (url, _):
+        assert main(["rollout", "--server", url, "--out", str(whole), *args]) == 0
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    code = "from nsrmp_bench.cli.main import main; raise SystemExit(main())"
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+
+    def start(extra: dict[str, str]) -> subprocess.Popen[str]:
+        return subprocess.Popen([sys.executable, "-c", code, "serve", "alternating:policy",
+                                 "--port", str(port)], cwd=tmp_path, env={**env, **extra},
+                                stderr=subprocess.PIPE, text=True)
+
+    first = start({"NSRMP_TEST_EXIT_AT": "3"})  # dies in the second episode
+    assert first.stderr is not None
+    for line in first.stderr:  # until it listens
+        if line.startswith("serving "):
+            break
+    second: list[subprocess.Popen[str]] = []
+
+    def restart() -> None:
+        first.wait(timeout=120)
+        second.append(start({}))
+
+    watcher = threading.Thread(target=restart, daemon=True)
+    watcher.start()
+    out = tmp_path / "reconnected.jsonl"
+    try:
+        assert main(["rollout", "--server", f"ws://127.0.0.1:{port}", "--out", str(out),
+                     "--retries", "10", *args]) == 0
+    finally:
+        watcher.join(timeout=120)
+        for proc in (first, *second):
+            if proc.poll() is None:
+                proc.kill()
+            proc.wait(timeout=30)
+    assert out.read_bytes() == whole.read_bytes()
