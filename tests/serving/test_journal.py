@@ -48,5 +48,5 @@ def test_a_rerun_resumes_and_a_cut_line_is_dropped(tmp_path: Path) -> None:
 def test_another_runs_journal_is_refused(tmp_path: Path) -> None:
     path = journal_path(tmp_path / "p.jsonl")
     RolloutJournal(path, RUN).close()
-    with pytest.raises(InvalidArgument, match="journal of another run.*delete the journal"):
+    with pytest.raises(InvalidArgument, match=r"journal of another run.*delete the journal"):
         RolloutJournal(path, {**RUN, "policy": "noop"})
