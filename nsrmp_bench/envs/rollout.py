@@ -29,13 +29,15 @@ class RolloutConfig:
     executor: str = "teleport"
     boxes: str | None = None
     step_margin: int = 2
+    control: str = "pick_place"
 
     def make_env(self) -> Any:
         """The environment these settings describe."""
         from nsrmp_bench.envs.tabletop import TabletopEnv
 
         return TabletopEnv(self.data, split=self.split, part=self.part, boxes=self.boxes,
-                           executor=self.executor, step_margin=self.step_margin)
+                           executor=self.executor, step_margin=self.step_margin,
+                           control=self.control)
 
 
 def run_episode(env: Any, policy: Any, instance: str | int) -> tuple[Prediction, dict[str, Any]]:

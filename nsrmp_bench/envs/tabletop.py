@@ -39,6 +39,15 @@ program policies: ``{"step": (action, subject, reference)}`` with ``action`` one
 the current physical state. A pick point on no object, or a place point whose ray meets
 no support, moves nothing (``info["failure"]`` says why).
 
+**End-effector control** (``control="ee"``; ``"pick_place"`` is the default): the action
+is ``{"ee": (dx, dy, dz, dyaw), "gripper": 0..1, "done": 0}``, a change of the Panda's
+grasp-target pose (m, rad; clipped to 5 cm per axis and 0.5 rad) and a finger opening
+(1 open, 0 closed) over one 0.1 s control step, through the robot executor's inverse
+kinematics (:mod:`nsrmp_bench.generators.robot.ee_control`); the observation adds
+``proprio`` (12 float32) and is rendered with the arm in view; the episode is truncated
+after :data:`EE_STEPS_PER_MOVE` control steps per allowed move, and the settled scene is
+scored as in the default mode. The executor is then always the Panda.
+
 **Executors**: ``teleport`` (the object is put at its target and physics settles, as in
 generation) or ``robot`` (the Panda picks and places it; slower).
 
@@ -90,9 +99,16 @@ from nsrmp_bench.vocabulary import ACTIONS, MAX_OBJECTS, TABLE_TOP_Z
 if TYPE_CHECKING:
     from nsrmp_bench.storage.reader import EpisodeCollection
 
-__all__ = ["BOXES", "EXECUTORS", "INSTRUCTION_CHARSET", "TabletopEnv"]
+__all__ = ["BOXES", "CONTROLS", "EE_STEPS_PER_MOVE", "EXECUTORS", "INSTRUCTION_CHARSET",
+           "TabletopEnv"]
 
 EXECUTORS: Final = ("teleport", "robot")
+CONTROLS: Final = ("pick_place", "ee")
+"""``pick_place``: an action is a whole move (pick and place points, or a DSL step);
+``ee``: an end-effector pose change and a gripper command at 10 Hz (the Panda)."""
+EE_STEPS_PER_MOVE: Final = 80
+"""With ``control="ee"`` the episode is truncated after this many control steps per move
+allowed (the instruction's steps plus the margin)."""
 INSTRUCTION_CHARSET: Final = frozenset(string.printable)
 MAX_INSTRUCTION: Final = MAX_INSTRUCTION_CHARS
 _FLOOR_Z: Final = TABLE_TOP_Z - 0.105  # an object below this has left the table
@@ -183,8 +199,13 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         step_margin: int = 2,
         profile: str = "fast",
         render_mode: str | None = None,
+        control: str = "pick_place",
     ) -> None:
         boxes = check_boxes(boxes)
+        if control not in CONTROLS:
+            msg = (f"control={control!r} is not one of {list(CONTROLS)}; use 'pick_place' "
+                   "(whole moves) or 'ee' (end-effector pose changes and a gripper command)")
+            raise InvalidArgument(msg)
         if executor not in EXECUTORS:
             msg = (f"executor={executor!r} is not one of {list(EXECUTORS)}; use 'teleport' "
                    "(place and settle) or 'robot' (the Panda picks and places)")
@@ -199,7 +220,8 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         self.boxes_mode = boxes
         self._detector: Detector | None = (make_detector(boxes) if boxes in DETECTOR_BOXES
                                            else None)
-        self.executor = executor
+        self.control = control
+        self.executor = "robot" if control == "ee" else executor  # ee: the Panda moves
         self.step_margin = int(step_margin)
         self.profile = profile
         self.render_mode = render_mode
@@ -212,8 +234,19 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         w, h = float(self.camera.width), float(self.camera.height)
         point = spaces.Box(low=np.zeros(2, np.float32), high=np.array([w, h], np.float32),
                            dtype=np.float32)
-        self.action_space = spaces.Dict({"pick": point, "place": point,
-                                         "done": spaces.Discrete(2)})
+        if control == "ee":
+            from nsrmp_bench.generators.robot.ee_control import MAX_TRANSLATION, MAX_YAW
+
+            lim = np.array([MAX_TRANSLATION] * 3 + [MAX_YAW], np.float32)
+            self.action_space = spaces.Dict({
+                "ee": spaces.Box(-lim, lim, dtype=np.float32),
+                "gripper": spaces.Box(0.0, 1.0, (), np.float32),
+                "done": spaces.Discrete(2)})
+        else:
+            self.action_space = spaces.Dict({"pick": point, "place": point,
+                                             "done": spaces.Discrete(2)})
+        self._ee: Any = None
+        self._control_steps = 0
         self.episode: Episode | None = None
         self._instruction = ""
         self._ended = True
@@ -240,6 +273,10 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
             }),
         }
         entries.update(space_entries(self.boxes_mode, w, h, MAX_OBJECTS))
+        if self.control == "ee":
+            from nsrmp_bench.generators.robot.ee_control import PROPRIO_SIZE
+
+            entries["proprio"] = spaces.Box(-inf, inf, (PROPRIO_SIZE,), np.float32)
         return spaces.Dict(entries)
 
     # -- the world -----------------------------------------------------------------------
@@ -268,7 +305,8 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
 
     def _measure(self) -> None:
         world = self._world
-        self._images = world.render(self.camera, composite=self.executor == "teleport")
+        # the arm is in view under end-effector control (a full render); else hidden
+        self._images = world.render(self.camera, composite=self.control != "ee")
         self._poses = np.asarray(world.poses(), dtype=np.float64)
         self._state_boxes.append(self._boxes_now())
 
@@ -287,6 +325,9 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         ``options["instruction"]`` replaces the instance's instruction in the observations
         (what a person says instead; checked like every instruction, printable ASCII)."""
         super().reset(seed=seed)
+        if self._ee is not None:  # before the world is reset or replaced
+            self._ee.stop()
+            self._ee = None
         opts = dict(options or {})
         unknown = set(opts) - {"instance", "instruction"}
         if unknown:
@@ -323,7 +364,13 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         self._history = []
         self._state_boxes = []
         self._t = 0.0
+        self._control_steps = 0
         self._stage(episode)
+        if self.control == "ee":
+            from nsrmp_bench.generators.robot.ee_control import EndEffectorControl
+
+            self._ee = EndEffectorControl(self._world, self.profile)
+            self._ee.start()
         self._measure()
         self._ended = False
         return self._observation(), self._info(moved=None, failure=None)
@@ -337,6 +384,8 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
             msg = (f"step() called after the episode of {self.episode.id} ended (terminated "
                    "or truncated); call env.reset() to start the next one")
             raise ResetNeeded(msg)
+        if self.control == "ee":
+            return self._step_ee(action)
         done, move, failure = self._decode(action)
         moved: int | None = None
         if not done:
@@ -355,6 +404,44 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         reward = float(info["is_success"]) if self._ended else 0.0
         return self._observation(), reward, done, truncated, info
 
+    def _step_ee(self, action: Action) -> tuple[dict[str, Any], float, bool, bool,
+                                                dict[str, Any]]:
+        """One end-effector control step (``control="ee"``)."""
+        if not isinstance(action, Mapping):
+            msg = (f"with control='ee' an action is {{'ee': (dx, dy, dz, dyaw), 'gripper': "
+                   f"0..1, 'done': 0}} or {{'done': 1}}; got {type(action).__name__}")
+            raise InvalidAction(msg)
+        unknown = set(action) - {"ee", "gripper", "done"}
+        if unknown:
+            msg = (f"unknown action key(s) {sorted(unknown)} with control='ee'; the keys are "
+                   "'ee', 'gripper' and 'done' (pick/place and step need control='pick_place')")
+            raise InvalidAction(msg)
+        try:
+            done = bool(int(np.asarray(action.get("done", 0)).reshape(())))
+        except (TypeError, ValueError) as exc:
+            msg = f"action 'done' must be 0 or 1, got {action.get('done')!r}"
+            raise InvalidAction(msg) from exc
+        if not done:
+            if "ee" not in action:
+                msg = (f"an end-effector action needs 'ee' (dx, dy, dz, dyaw); got keys "
+                       f"{sorted(action)}; to stop, pass {{'done': 1}}")
+                raise InvalidAction(msg)
+            try:
+                grip = float(np.asarray(action.get("gripper", self._ee.gripper)).reshape(()))
+            except (TypeError, ValueError) as exc:
+                msg = f"action 'gripper' must be a number in [0, 1], got {action['gripper']!r}"
+                raise InvalidAction(msg) from exc
+            self._ee.step(action["ee"], grip)
+            self._control_steps += 1
+        truncated = not done and self._control_steps >= self.max_steps
+        self._ended = done or truncated
+        if self._ended:  # the scene is scored at rest
+            self._world.settle(max_steps=240, floor_z=_FLOOR_Z)
+        self._measure()
+        info = self._info(moved=None, failure=None)
+        reward = float(info["is_success"]) if self._ended else 0.0
+        return self._observation(), reward, done, truncated, info
+
     def render(self) -> NDArray[np.uint8] | None:
         """The current RGB image with ``render_mode="rgb_array"``; None otherwise."""
         if self.render_mode != "rgb_array" or self._images is None:
@@ -364,6 +451,9 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
 
     def close(self) -> None:
         """Release the PyBullet world."""
+        if self._ee is not None:
+            self._ee.stop()
+            self._ee = None
         if self._world is not None:
             self._world.close()
             self._world = None
@@ -374,7 +464,8 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
     def max_steps(self) -> int:
         """Moves after which the episode is truncated: the instruction's steps + margin."""
         assert self.episode is not None
-        return self.episode.symbolic.num_steps + self.step_margin
+        moves = self.episode.symbolic.num_steps + self.step_margin
+        return moves * EE_STEPS_PER_MOVE if self.control == "ee" else moves
 
     def _decode(self, action: Action) -> tuple[bool, tuple[int, Pose, dict[str, Any]] | None,
                                                 str | None]:
@@ -502,6 +593,8 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
                                                                 dtype=np.float32), cam)
             obs["boxes"], obs["object_mask"], obs["box_scores"] = detected_rows(
                 found, MAX_OBJECTS, cam.width, cam.height)
+        if self.control == "ee":
+            obs["proprio"] = self._ee.proprio()
         return obs
 
     def _scores(self) -> tuple[bool, float]:
@@ -519,12 +612,17 @@ class TabletopEnv(gym.Env[dict[str, Any], dict[str, Any]]):
             "is_success": success,
             "iou_m": iou_m,
             "boxes": self._state_boxes[-1].copy(),
-            "step": len(self._history),
+            "step": self._control_steps if self.control == "ee" else len(self._history),
             "instance": self.episode.id,
             "max_steps": self.max_steps,
             "moved": moved,
             "failure": failure,
         }
+
+    def object_poses(self) -> F64:
+        """The objects' current poses ``(N, 7)`` (position, quaternion xyzw): privileged,
+        for scripted policies such as ``oracle-ee``."""
+        return self._poses.copy()
 
     def prediction(self) -> Prediction:
         """The predictions-file line of what has been achieved so far.
