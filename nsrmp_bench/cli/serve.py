@@ -32,7 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--port", type=int, default=8765,
                         help="TCP port to listen on (default 8765; 0 picks a free one)")
     parser.add_argument("--host", default="127.0.0.1",
-                        help="address to listen on (default 127.0.0.1, this machine only)")
+                        help="address to listen on (default 127.0.0.1: local connections only)")
     parser.add_argument("--data", type=Path, default=None,
                         help="the part the privileged baselines read episodes from")
     parser.add_argument("--part", default=None, help="with a split root as --data: the part")
