@@ -118,6 +118,7 @@ def test_pack_onto_a_full_disk_leaves_no_shard_under_its_final_name(
         assert not list(disk.rglob("*.tmp"))
 
 
+@pytest.mark.sim  # the command reaches the lock only where PyBullet is installed
 def test_a_second_generate_into_a_held_folder_is_refused(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
