@@ -236,7 +236,7 @@ def build(
     ``breakdown``; the boards' figures are the same either way).
     """
     boards: dict[str, list[dict[str, Any]]] = {}
-    golds: dict[str, GoldTable] = {}
+    golds: dict[str, tuple[GoldTable, bool]] = {}  # part -> its gold, has phenomena
     for entry in load_entries(entries_dir):
         split_id, part = entry.split.split("/", 1)
         data = find_part(data_root, entry.split)
@@ -248,11 +248,11 @@ def build(
             )
             raise InvalidArgument(msg)
         _check_protocol(entry, data)
-        phenomena = "phenomenon" in read_manifest(data).to_dict().get("counts", {})
-        if str(data) not in golds:  # a part's gold is read once for all its entries
-            golds[str(data)] = load_gold(data)
-        result = score(entry.predictions, golds[str(data)], breakdown=breakdown or phenomena,
-                       scorer=scorer)
+        if str(data) not in golds:  # a part's gold and manifest are read once for all its entries
+            golds[str(data)] = (load_gold(data), "phenomenon" in
+                                read_manifest(data).to_dict().get("counts", {}))
+        gold, phenomena = golds[str(data)]
+        result = score(entry.predictions, gold, breakdown=breakdown or phenomena, scorer=scorer)
         if on_result is not None:
             on_result(entry, result)
         metrics = {}
